@@ -1,0 +1,44 @@
+"""The ``evodevo`` command line (Typer).
+
+Sub-commands live in one file each: :mod:`evodevo.cli.biarm`, :mod:`evodevo.cli.grn`,
+:mod:`evodevo.cli.reproduce`. User errors (:class:`~evodevo.errors.EvodevoError`) print one
+line ``error: ...`` and exit with status 2, without a traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from evodevo.errors import EvodevoError
+
+__all__ = ["app", "main"]
+
+app = typer.Typer(
+    name="evodevo",
+    help="Evolutionary developmental robotics: BIARM and GRN controllers, with honest baselines.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _register() -> None:
+    from evodevo.cli import biarm, grn, reproduce
+
+    app.add_typer(biarm.app, name="biarm")
+    app.add_typer(grn.app, name="grn")
+    app.command("reproduce")(reproduce.reproduce)
+
+
+_register()
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point."""
+    try:
+        app(args=argv, standalone_mode=True)
+    except EvodevoError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        sys.exit(2)

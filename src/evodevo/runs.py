@@ -1,0 +1,178 @@
+"""Run directories (STYLE.md point 2): resolved config, metrics CSV, summary, checkpoints.
+
+Every write of a file that a later step reads back goes through :func:`atomic_write_bytes`
+(temporary file + ``os.replace``), so a kill during a write never leaves a half-written file.
+
+>>> import tempfile
+>>> run = RunDir(tempfile.mkdtemp())
+>>> run.write_summary({"ok": 1})
+>>> run.read_summary()["ok"]
+1
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import platform
+import tempfile
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from evodevo.errors import CheckpointError, EvodevoError
+
+__all__ = ["RunDir", "atomic_write_bytes", "atomic_write_text", "write_json", "read_json", "machine_info"]
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` via a temporary file in the same folder and an atomic rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Text version of :func:`atomic_write_bytes`."""
+    atomic_write_bytes(path, text.encode())
+
+
+def _json_default(o: Any) -> Any:
+    try:
+        import numpy as np
+
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def write_json(path: str | Path, obj: Any) -> None:
+    """Atomically write ``obj`` as indented JSON."""
+    atomic_write_text(path, json.dumps(obj, indent=2, default=_json_default) + "\n")
+
+
+def read_json(path: str | Path) -> Any:
+    """Read JSON, raising :class:`CheckpointError` with the path on a missing or corrupt file."""
+    p = Path(path)
+    if not p.is_file():
+        raise CheckpointError(f"{str(p)!r} does not exist; is this the right run directory?")
+    try:
+        return json.loads(p.read_text())
+    except json.JSONDecodeError as exc:
+        raise CheckpointError(f"{str(p)!r} is corrupt ({exc}); delete it or re-run") from None
+
+
+def machine_info() -> dict[str, Any]:
+    """The machine a number was measured on (SPEC §6: every table names its machine)."""
+    return {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+    }
+
+
+class RunDir:
+    """One run's folder: ``config.json``, ``*.csv`` metrics, ``summary.json``, ``checkpoints/``."""
+
+    def __init__(self, path: str | Path, create: bool = True) -> None:
+        self.path = Path(path)
+        if create:
+            self.path.mkdir(parents=True, exist_ok=True)
+        elif not self.path.is_dir():
+            raise EvodevoError(f"run directory {str(self.path)!r} does not exist")
+
+    def __truediv__(self, name: str) -> Path:
+        return self.path / name
+
+    @property
+    def checkpoints(self) -> Path:
+        p = self.path / "checkpoints"
+        p.mkdir(exist_ok=True)
+        return p
+
+    def write_config(self, config: Mapping[str, Any], kind: str) -> None:
+        """Save the resolved config with the run's kind, machine and start time."""
+        write_json(
+            self.path / "config.json",
+            {"kind": kind, "config": dict(config), "machine": machine_info(), "created": time.time()},
+        )
+
+    def read_config(self) -> dict[str, Any]:
+        return dict(read_json(self.path / "config.json"))
+
+    def write_summary(self, summary: Mapping[str, Any]) -> None:
+        write_json(self.path / "summary.json", dict(summary))
+
+    def read_summary(self) -> dict[str, Any]:
+        return dict(read_json(self.path / "summary.json"))
+
+    def write_csv(self, name: str, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] | None = None) -> None:
+        """Atomically (re)write a whole CSV file from ``rows``."""
+        buf = io.StringIO()
+        cols = list(fields) if fields is not None else (list(rows[0].keys()) if rows else [])
+        w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+        atomic_write_text(self.path / name, buf.getvalue())
+
+    def read_csv(self, name: str) -> list[dict[str, str]]:
+        p = self.path / name
+        if not p.is_file():
+            raise CheckpointError(f"{str(p)!r} does not exist; is this the right run directory?")
+        with p.open() as fh:
+            return list(csv.DictReader(fh))
+
+
+class CsvAppender:
+    """Append rows to a CSV file (header written once); flushed after every row.
+
+    Used for long per-episode logs; on resume the file is truncated to the rows already
+    covered by the checkpoint by rewriting it through :meth:`RunDir.write_csv`.
+    """
+
+    def __init__(self, path: str | Path, fields: Sequence[str]) -> None:
+        self.path = Path(path)
+        self.fields = list(fields)
+        new = not self.path.exists() or self.path.stat().st_size == 0
+        self._fh = self.path.open("a", newline="")
+        self._w = csv.DictWriter(self._fh, fieldnames=self.fields, extrasaction="ignore")
+        if new:
+            self._w.writeheader()
+            self._fh.flush()
+
+    def write(self, row: Mapping[str, Any]) -> None:
+        self._w.writerow(row)
+        self._fh.flush()
+
+    def close(self) -> None:
+        self._fh.close()
+
+    def __enter__(self) -> CsvAppender:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+__all__ += ["CsvAppender"]
