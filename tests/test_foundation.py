@@ -117,5 +117,40 @@ def _always_die(x: int) -> int:
 
 
 def test_pool_gives_up_with_clear_error():
-    with WorkerPool(2, max_retries=1) as pool, pytest.raises(EvodevoError, match="gave up|giving up"):
+    with (
+        WorkerPool(2, max_retries=1) as pool,
+        pytest.raises(EvodevoError, match="gave up|giving up"),
+    ):
         pool.map(_always_die, [1])
+
+
+def _square(x: int) -> int:
+    return x * x
+
+
+def _ray_die_once(x: int) -> int:
+    marker = f"{os.environ.get('EVODEVO_TEST_MARK', '/tmp/evodevo-ray')}.{x}"
+    if x == 1 and not os.path.exists(marker):
+        open(marker, "w").close()
+        os._exit(1)
+    return x * x
+
+
+def test_ray_pool_matches_local_and_survives_dead_actor(tmp_path, monkeypatch):
+    pytest.importorskip("ray")
+    from evodevo.parallel import make_pool
+
+    monkeypatch.setenv("EVODEVO_TEST_MARK", str(tmp_path / "mark"))
+    with make_pool("local", 1) as local:
+        expected = local.map(_square, range(5))
+    with make_pool("ray", 2) as pool:
+        assert pool.map(_square, range(5)) == expected
+        assert pool.map(_ray_die_once, [0, 1, 2]) == [0, 1, 4]
+        assert pool.restarts >= 1
+
+
+def test_make_pool_rejects_unknown_backend():
+    from evodevo.parallel import make_pool
+
+    with pytest.raises(EvodevoError, match="unknown backend"):
+        make_pool("dask", 2)

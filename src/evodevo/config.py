@@ -75,7 +75,9 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
         if isinstance(value, tp):  # type: ignore[arg-type]
             return value
         if not isinstance(value, Mapping):
-            raise ConfigError(f"{where}: expected a mapping of {_type_name(tp)} fields, got {value!r}")
+            raise ConfigError(
+                f"{where}: expected a mapping of {_type_name(tp)} fields, got {value!r}"
+            )
         return from_dict(tp, value, where)  # type: ignore[arg-type]
     if origin in (list, tuple):
         if isinstance(value, str) and origin is list:
@@ -86,7 +88,10 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
         if origin is tuple and args and args[-1] is not Ellipsis:
             if len(value) != len(args):
                 raise ConfigError(f"{where}: expected {len(args)} values, got {len(value)}")
-            return tuple(_coerce(v, a, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args, strict=True)))
+            return tuple(
+                _coerce(v, a, f"{where}[{i}]")
+                for i, (v, a) in enumerate(zip(value, args, strict=True))
+            )
         item = args[0] if args else Any
         out = [_coerce(v, item, f"{where}[{i}]") for i, v in enumerate(value)]
         return tuple(out) if origin is tuple else out
@@ -95,7 +100,11 @@ def _coerce(value: Any, tp: Any, where: str) -> Any:
             return value
         raise ConfigError(f"{where}: expected true or false, got {value!r}")
     if tp is int:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or float(value) != int(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or float(value) != int(value)
+        ):
             raise ConfigError(f"{where}: expected an integer, got {value!r}")
         return int(value)
     if tp is float:
@@ -145,7 +154,9 @@ def from_dict(cls: type[T], data: Mapping[str, Any], where: str = "") -> T:
     return obj
 
 
-def load_config(cls: type[T], path: str | Path | None = None, overrides: Mapping[str, Any] | None = None) -> T:
+def load_config(
+    cls: type[T], path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
+) -> T:
     """Load ``cls`` from a YAML file (optional) and then apply ``overrides`` (nested dicts merge)."""
     data: dict[str, Any] = {}
     if path is not None:
@@ -155,11 +166,15 @@ def load_config(cls: type[T], path: str | Path | None = None, overrides: Mapping
         try:
             loaded = yaml.safe_load(p.read_text())
         except yaml.YAMLError as exc:
-            raise ConfigError(f"config file {str(p)!r} is not valid YAML: {exc}".splitlines()[0]) from None
+            raise ConfigError(
+                f"config file {str(p)!r} is not valid YAML: {exc}".splitlines()[0]
+            ) from None
         if loaded is None:
             loaded = {}
         if not isinstance(loaded, Mapping):
-            raise ConfigError(f"config file {str(p)!r} must hold a mapping of keys, got {type(loaded).__name__}")
+            raise ConfigError(
+                f"config file {str(p)!r} must hold a mapping of keys, got {type(loaded).__name__}"
+            )
         data = dict(loaded)
     if overrides:
         data = _merge(data, overrides)

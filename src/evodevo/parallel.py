@@ -16,6 +16,7 @@ raised by the task function itself are not retried: they are bugs or bad input a
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import os
 from collections.abc import Callable, Iterable, Sequence
@@ -40,10 +41,8 @@ def set_single_thread() -> None:
 
         torch.set_num_threads(1)
         if torch.get_num_interop_threads() != 1:
-            try:
+            with contextlib.suppress(RuntimeError):
                 torch.set_num_interop_threads(1)
-            except RuntimeError:
-                pass
     except ImportError:  # pragma: no cover - torch is a hard dependency
         pass
 
@@ -148,3 +147,30 @@ class WorkerPool:
                             "Check memory (dmesg) or run with --workers 1 to see the error."
                         )
         return [results[i] for i in range(len(seq))]
+
+
+def make_pool(
+    backend: str = "local",
+    workers: int = 1,
+    initializer: Callable[..., None] | None = None,
+    initargs: tuple[Any, ...] = (),
+    max_retries: int = 1,
+    address: str | None = None,
+) -> Any:
+    """A :class:`WorkerPool` (``backend="local"``) or a :class:`~evodevo.ray_pool.RayPool`.
+
+    Both have the same ``map``/``close``/context-manager interface and give the same results:
+    items are seeded by the caller, never by the worker that happens to run them.
+    """
+    if backend == "local":
+        if address is not None:
+            raise EvodevoError("--address only goes with --backend ray")
+        return WorkerPool(workers, initializer, initargs, max_retries)
+    if backend == "ray":
+        from evodevo.ray_pool import RayPool
+
+        return RayPool(workers, initializer, initargs, max_retries, address)
+    raise EvodevoError(f"unknown backend {backend!r}; choose local or ray")
+
+
+__all__ += ["make_pool"]

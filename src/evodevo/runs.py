@@ -25,7 +25,14 @@ from typing import Any
 
 from evodevo.errors import CheckpointError, EvodevoError
 
-__all__ = ["RunDir", "atomic_write_bytes", "atomic_write_text", "write_json", "read_json", "machine_info"]
+__all__ = [
+    "RunDir",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "write_json",
+    "read_json",
+    "machine_info",
+]
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
@@ -114,7 +121,12 @@ class RunDir:
         """Save the resolved config with the run's kind, machine and start time."""
         write_json(
             self.path / "config.json",
-            {"kind": kind, "config": dict(config), "machine": machine_info(), "created": time.time()},
+            {
+                "kind": kind,
+                "config": dict(config),
+                "machine": machine_info(),
+                "created": time.time(),
+            },
         )
 
     def read_config(self) -> dict[str, Any]:
@@ -126,7 +138,9 @@ class RunDir:
     def read_summary(self) -> dict[str, Any]:
         return dict(read_json(self.path / "summary.json"))
 
-    def write_csv(self, name: str, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] | None = None) -> None:
+    def write_csv(
+        self, name: str, rows: Sequence[Mapping[str, Any]], fields: Sequence[str] | None = None
+    ) -> None:
         """Atomically (re)write a whole CSV file from ``rows``."""
         buf = io.StringIO()
         cols = list(fields) if fields is not None else (list(rows[0].keys()) if rows else [])

@@ -1,0 +1,157 @@
+"""Ray backend for :class:`~evodevo.parallel.WorkerPool`'s interface (Ray is an optional extra).
+
+Each Ray actor runs :func:`~evodevo.parallel.worker_setup` once (one torch thread, then the
+caller's initializer, e.g. building its own environment) and is reused for every item. Items are
+dealt to idle actors; an actor that dies is replaced and its item resubmitted, at most
+``max_retries`` times. ``address=None`` starts a local Ray instance with ``workers`` CPUs;
+``address="auto"`` or ``"HOST:PORT"`` joins a running cluster (``ray start --head``).
+
+Ray is imported only when a :class:`RayPool` is created.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Iterable
+from typing import Any, TypeVar
+
+from evodevo.errors import EvodevoError
+
+__all__ = ["RayPool"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise EvodevoError(
+            "--backend ray needs Ray: pip install 'evodevo[ray]' (or use --backend local)"
+        ) from None
+    return ray
+
+
+class _Runner:
+    """The actor body: set up once, then run items."""
+
+    def __init__(self, initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
+        from evodevo.parallel import worker_setup
+
+        worker_setup(initializer, initargs)
+
+    def run(self, fn: Callable[[Any], Any], item: Any) -> Any:
+        return fn(item)
+
+    def pid(self) -> int:
+        import os
+
+        return os.getpid()
+
+
+class RayPool:
+    """Ordered ``map`` over Ray actors that each own their environment.
+
+    Args:
+        workers: number of actors.
+        initializer: called once in each actor.
+        initargs: its arguments.
+        max_retries: how often one item may be resubmitted after its actor died.
+        address: ``None`` for a local instance, ``"auto"`` or ``"HOST:PORT"`` for a cluster.
+    """
+
+    def __init__(
+        self,
+        workers: int = 2,
+        initializer: Callable[..., None] | None = None,
+        initargs: tuple[Any, ...] = (),
+        max_retries: int = 1,
+        address: str | None = None,
+    ) -> None:
+        if workers < 1:
+            raise EvodevoError(f"workers={workers} must be at least 1")
+        self.ray = _import_ray()
+        self.workers = workers
+        self.initializer = initializer
+        self.initargs = initargs
+        self.max_retries = max_retries
+        self.restarts = 0
+        self._owns_ray = False
+        if not self.ray.is_initialized():
+            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+            if address is None:
+                # A private instance on loopback; workers see the driver's sys.path (as the
+                # spawn-based local pool does), so functions from any importable module run.
+                kwargs["num_cpus"] = workers
+                kwargs["_node_ip_address"] = "127.0.0.1"
+                kwargs["runtime_env"] = {
+                    "env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+                }
+            else:
+                kwargs["address"] = address
+            try:
+                self.ray.init(**kwargs)
+            except ConnectionError as exc:
+                raise EvodevoError(
+                    f"cannot reach a Ray cluster at {address!r} ({exc}); start one with "
+                    "'ray start --head' or use --backend local"
+                ) from None
+            self._owns_ray = True
+        self._actor_cls = self.ray.remote(num_cpus=1)(_Runner)
+        self.actors = [self._new_actor() for _ in range(workers)]
+
+    def _new_actor(self) -> Any:
+        return self._actor_cls.remote(self.initializer, self.initargs)
+
+    def __enter__(self) -> RayPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        for a in self.actors:
+            try:
+                self.ray.kill(a)
+            except Exception:  # noqa: BLE001 - actor may already be gone
+                pass
+        self.actors = []
+        if self._owns_ray:
+            self.ray.shutdown()
+            self._owns_ray = False
+
+    def map(self, fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+        """``[fn(x) for x in items]`` in order, one item per idle actor at a time."""
+        ray = self.ray
+        from ray.exceptions import RayActorError
+
+        seq = list(items)
+        results: dict[int, R] = {}
+        attempts = [0] * len(seq)
+        queue = list(range(len(seq)))
+        running: dict[Any, tuple[int, int]] = {}  # ref -> (item, actor slot)
+        idle = list(range(len(self.actors)))
+        while queue or running:
+            while queue and idle:
+                slot = idle.pop()
+                i = queue.pop(0)
+                running[self.actors[slot].run.remote(fn, seq[i])] = (i, slot)
+            done, _ = ray.wait(list(running), num_returns=1)
+            for ref in done:
+                i, slot = running.pop(ref)
+                try:
+                    results[i] = ray.get(ref)
+                except RayActorError:
+                    self.restarts += 1
+                    attempts[i] += 1
+                    if attempts[i] > self.max_retries:
+                        raise EvodevoError(
+                            f"a Ray actor died {attempts[i]} times while running item {i} "
+                            f"({getattr(fn, '__name__', fn)}); giving up after {self.max_retries} retries"
+                        ) from None
+                    self.actors[slot] = self._new_actor()
+                    queue.insert(0, i)
+                idle.append(slot)
+        return [results[i] for i in range(len(seq))]
