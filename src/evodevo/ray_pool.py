@@ -11,6 +11,7 @@ Ray is imported only when a :class:`RayPool` is created.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from collections.abc import Callable, Iterable
@@ -113,10 +114,8 @@ class RayPool:
 
     def close(self) -> None:
         for a in self.actors:
-            try:
+            with contextlib.suppress(Exception):  # the actor may already be gone
                 self.ray.kill(a)
-            except Exception:  # noqa: BLE001 - actor may already be gone
-                pass
         self.actors = []
         if self._owns_ray:
             self.ray.shutdown()
