@@ -1,0 +1,453 @@
+"""``evodevo/KukaDiverseObject-v0``: a Gymnasium port of PyBullet's KukaDiverseObjectEnv (SPEC §3).
+
+Same physics (timestep 1/240 s, 150 solver iterations, gravity −10, 80 simulation steps per
+action, 500 settle steps after dropping each object, 500 + 500 steps of automatic grasp and
+lift), same objects, camera and reward as ``pybullet_envs.bullet.kuka_diverse_object_gym_env``
+of ``pybullet`` 3.2.7, with these differences:
+
+* the Gymnasium API: ``reset(seed=, options=) -> (obs, info)`` and
+  ``step(a) -> (obs, reward, terminated, truncated, info)``; every random draw (camera jitter,
+  object choice, placement) comes from ``self.np_random``, so a seed fixes the episode;
+* the plane, table, tray and arm are loaded once; a reset removes the previous objects and puts
+  the arm back in its initial state instead of calling ``resetSimulation``;
+* each instance owns its own ``pybullet.DIRECT`` client;
+* ``info["proprio"]``: end-effector x, y, z and finger opening, normalised (see
+  :data:`PROPRIO_CENTRE`, :data:`PROPRIO_HALF_RANGE`); ``info["is_success"]``: reward == 1;
+* ``terminated`` is True after the automatic grasp; reaching ``max_steps`` without a grasp sets
+  ``truncated`` (the original returned a single ``done``);
+* continuous actions are clipped to [−1, 1].
+
+>>> import gymnasium as gym, evodevo.envs
+>>> env = gym.make("evodevo/KukaDiverseObject-v0")
+>>> obs, info = env.reset(seed=0)
+>>> obs.shape, obs.dtype, info["proprio"].shape
+((48, 48, 3), dtype('uint8'), (4,))
+>>> env.close()
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+import pybullet as p
+import pybullet_data
+from gymnasium import spaces
+
+from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, WORKSPACE_X, WORKSPACE_Y, KukaArm
+from evodevo.envs.objects import object_files
+from evodevo.errors import ConfigError, EvodevoError
+
+__all__ = [
+    "KukaDiverseObjectEnv",
+    "PROPRIO_CENTRE",
+    "PROPRIO_HALF_RANGE",
+    "PROPRIO_CLIP",
+    "TIME_STEP",
+    "SETTLE_STEPS",
+    "GRASP_HEIGHT",
+    "SUCCESS_HEIGHT",
+    "RENDER_SIZE",
+]
+
+#: Simulation timestep (s), as in the original.
+TIME_STEP = 1.0 / 240.0
+#: Constraint-solver iterations, as in the original.
+SOLVER_ITERATIONS = 150
+#: Simulation steps after dropping each object, so that they fall one by one.
+SETTLE_STEPS = 500
+#: Drop height of the objects (m).
+DROP_HEIGHT = 0.15
+#: The automatic grasp starts when the end effector is at or below this height (m).
+GRASP_HEIGHT = 0.1
+#: Simulation steps of closing the fingers, then of lifting, in the automatic grasp.
+GRASP_CLOSE_STEPS = 500
+GRASP_LIFT_STEPS = 500
+#: Reward 1 when an object's base is above this height (m) after a step.
+SUCCESS_HEIGHT = 0.2
+#: End-effector displacement (m) per unit action; the gripper turns 0.25 rad per unit action.
+DV = 0.06
+DA = 0.25
+#: Start height of the end-effector target (m): the top of the height hack's descent.
+START_HEIGHT = 0.5
+#: Side (pixels) of the square image returned by ``render()`` in ``"rgb_array"`` mode.
+RENDER_SIZE = 256
+
+#: Proprioception ``(x, y, z, finger)`` is ``(raw - PROPRIO_CENTRE) / PROPRIO_HALF_RANGE``:
+#: x and y over the workspace clamp of the end-effector target ([0.50, 0.65] and [−0.17, 0.22] m),
+#: z over the height hack's descent from the start height 0.5 m to the grasp height 0.1 m, the
+#: finger opening (rad) over [0, 0.3] (shut .. open). Each maps to [−1, 1]; the measured pose can
+#: overshoot (z goes a little below −1 at the grasp, a large object can push the fingers open
+#: beyond 0.3 rad, without the height hack z is free), so the result is clipped to
+#: ±:data:`PROPRIO_CLIP`.
+PROPRIO_CENTRE = np.array(
+    [
+        0.5 * (WORKSPACE_X[0] + WORKSPACE_X[1]),
+        0.5 * (WORKSPACE_Y[0] + WORKSPACE_Y[1]),
+        0.5 * (START_HEIGHT + GRASP_HEIGHT),
+        0.5 * OPEN_FINGER_ANGLE,
+    ],
+    dtype=np.float64,
+)
+#: Bound of the normalised proprioception.
+PROPRIO_CLIP = 1.5
+PROPRIO_HALF_RANGE = np.array(
+    [
+        0.5 * (WORKSPACE_X[1] - WORKSPACE_X[0]),
+        0.5 * (WORKSPACE_Y[1] - WORKSPACE_Y[0]),
+        0.5 * (START_HEIGHT - GRASP_HEIGHT),
+        0.5 * OPEN_FINGER_ANGLE,
+    ],
+    dtype=np.float64,
+)
+
+# Discrete actions of the original: (dx, dy, dz, da) per index, dv and 0.25 rad units.
+_DISCRETE_HEIGHT_HACK = (
+    (0, 0, -1, 0),
+    (-1, 0, -1, 0),
+    (1, 0, -1, 0),
+    (0, -1, -1, 0),
+    (0, 1, -1, 0),
+    (0, 0, -1, -1),
+    (0, 0, -1, 1),
+)
+_DISCRETE_FREE = (
+    (0, 0, 0, 0),
+    (-1, 0, 0, 0),
+    (1, 0, 0, 0),
+    (0, -1, 0, 0),
+    (0, 1, 0, 0),
+    (0, 0, -1, 0),
+    (0, 0, 1, 0),
+    (0, 0, 0, -1),
+    (0, 0, 0, 1),
+)
+
+
+class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Grasp one of several random objects from a tray with a Kuka arm (SPEC §2.6, §3).
+
+    Args:
+        height_hack: The arm moves down by ``dv`` on every step and the action is
+            (dx, dy, d-angle); without it the action is (dx, dy, dz, d-angle).
+        test_objects: Use the held-out tenth of the objects (``isTest`` in the original).
+        num_objects: Objects dropped into the tray per episode (drawn with replacement).
+        max_steps: Actions per episode before truncation (the benchmark's default 8).
+        camera_random: In [0, 1]; jitter of the camera pitch, yaw (±3°) and fov (±2°).
+        render_mode: ``None`` or ``"rgb_array"`` (``render()`` returns a ``RENDER_SIZE`` image).
+        action_repeat: Simulation steps per action.
+        block_random: In [0, 1]; spread of the objects' drop positions and angles.
+        width: Observation width (pixels).
+        height: Observation height (pixels).
+        is_discrete: Discrete actions (7 with the height hack, 9 without), as in the original.
+        urdf_root: Folder of ``pybullet_data``; the installed one by default.
+
+    Raises:
+        ConfigError: An option is out of range.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        height_hack: bool = True,
+        test_objects: bool = False,
+        num_objects: int = 5,
+        max_steps: int = 8,
+        camera_random: float = 0.0,
+        render_mode: str | None = None,
+        action_repeat: int = 80,
+        block_random: float = 0.3,
+        width: int = 48,
+        height: int = 48,
+        is_discrete: bool = False,
+        urdf_root: str | None = None,
+    ) -> None:
+        _check_int("num_objects", num_objects, 1)
+        _check_int("max_steps", max_steps, 1)
+        _check_int("action_repeat", action_repeat, 1)
+        _check_int("width", width, 1)
+        _check_int("height", height, 1)
+        _check_unit("camera_random", camera_random)
+        _check_unit("block_random", block_random)
+        if render_mode not in (None, "rgb_array"):
+            raise ConfigError(
+                f"render_mode={render_mode!r} is not supported; use None or 'rgb_array'"
+            )
+        self.height_hack = bool(height_hack)
+        self.test_objects = bool(test_objects)
+        self.num_objects = int(num_objects)
+        self.max_steps = int(max_steps)
+        self.camera_random = float(camera_random)
+        self.render_mode = render_mode
+        self.action_repeat = int(action_repeat)
+        self.block_random = float(block_random)
+        self.width = int(width)
+        self.height = int(height)
+        self.is_discrete = bool(is_discrete)
+        self.urdf_root = urdf_root if urdf_root is not None else pybullet_data.getDataPath()
+        self._files = object_files(self.test_objects, self.urdf_root)
+        if not self._files:
+            raise ConfigError(f"no object URDFs found under {self.urdf_root!r}/random_urdfs")
+
+        self.observation_space = spaces.Box(0, 255, (self.height, self.width, 3), dtype=np.uint8)
+        self.action_space: spaces.Space[Any]
+        if self.is_discrete:
+            n = len(_DISCRETE_HEIGHT_HACK if self.height_hack else _DISCRETE_FREE)
+            self.action_space = spaces.Discrete(n)
+        else:
+            self.action_space = spaces.Box(
+                -1.0, 1.0, (3 if self.height_hack else 4,), dtype=np.float32
+            )
+
+        self._cid = p.connect(p.DIRECT)
+        self._connected = True
+        cid = self._cid
+        p.setPhysicsEngineParameter(
+            numSolverIterations=SOLVER_ITERATIONS,
+            deterministicOverlappingPairs=1,
+            physicsClientId=cid,
+        )
+        p.setTimeStep(TIME_STEP, physicsClientId=cid)
+        p.loadURDF(
+            os.path.join(self.urdf_root, "plane.urdf"), basePosition=[0, 0, -1], physicsClientId=cid
+        )
+        p.loadURDF(
+            os.path.join(self.urdf_root, "table/table.urdf"),
+            basePosition=[0.5, 0.0, -0.82],
+            baseOrientation=[0.0, 0.0, 0.0, 1.0],
+            physicsClientId=cid,
+        )
+        p.setGravity(0, 0, -10, physicsClientId=cid)
+        self._arm = KukaArm(cid, self.urdf_root)
+        self._arm.load()
+        self._object_uids: list[int] = []
+        self._fresh = True
+        self._ready = False
+        self._attempted_grasp = False
+        self._env_step = 0
+        self._view_matrix: Any = None
+        self._proj_matrix: Any = None
+
+    # ------------------------------------------------------------------ Gymnasium API
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode: new camera jitter, new objects dropped one by one into the tray.
+
+        Args:
+            seed: Seeds ``self.np_random`` (Gymnasium convention).
+            options: Not used; must be ``None`` or empty.
+
+        Returns:
+            The first image and ``{"proprio", "is_success": False}``.
+        """
+        super().reset(seed=seed)
+        if options:
+            raise EvodevoError(
+                f"reset options {sorted(options)} are not supported; pass settings to the constructor"
+            )
+        self._require_open()
+        rng = self.np_random
+        cid = self._cid
+        cr = self.camera_random
+        pitch = -56 + cr * rng.uniform(-3, 3)
+        yaw = 245 + cr * rng.uniform(-3, 3)
+        self._view_matrix = p.computeViewMatrixFromYawPitchRoll(
+            [0.23, 0.2, 0.54], 1.0, yaw, pitch, 0, 2, physicsClientId=cid
+        )
+        fov = 20.0 + cr * rng.uniform(-2, 2)
+        self._proj_matrix = p.computeProjectionMatrixFOV(
+            fov, self.width / self.height, 0.01, 10, physicsClientId=cid
+        )
+        self._attempted_grasp = False
+        self._env_step = 0
+
+        # Newest first: PyBullet reuses freed body ids last-in first-out, so the next objects get
+        # the same ids (and the same solver order) as in a freshly built world.
+        for uid in reversed(self._object_uids):
+            p.removeBody(uid, physicsClientId=cid)
+        self._object_uids = []
+        if not self._fresh:
+            self._arm.reset_state()
+        self._fresh = False
+        p.stepSimulation(physicsClientId=cid)
+
+        chosen = rng.choice(len(self._files), self.num_objects)
+        br = self.block_random
+        for index in chosen:
+            x = 0.4 + br * rng.random()
+            y = br * (rng.random() - 0.5)
+            angle = math.pi / 2 + br * math.pi * rng.random()
+            orn = p.getQuaternionFromEuler([0, 0, angle])
+            uid = p.loadURDF(
+                self._files[int(index)],
+                basePosition=[x, y, DROP_HEIGHT],
+                baseOrientation=orn,
+                physicsClientId=cid,
+            )
+            self._object_uids.append(uid)
+            for _ in range(SETTLE_STEPS):
+                p.stepSimulation(physicsClientId=cid)
+        self._ready = True
+        return self._observation(), {"proprio": self._proprio(), "is_success": False}
+
+    def step(self, action: Any) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
+        """Move the gripper; grasp automatically once it is low enough.
+
+        Args:
+            action: (dx, dy, d-angle) with the height hack, else (dx, dy, dz, d-angle), each in
+                [−1, 1] (scaled by 0.06 m and 0.25 rad); an integer if ``is_discrete``.
+
+        Returns:
+            ``(obs, reward, terminated, truncated, info)``; reward 1.0 when an object is above
+            0.2 m, ``terminated`` after the grasp, ``truncated`` at ``max_steps`` without one.
+
+        Raises:
+            EvodevoError: The action has the wrong shape, is not finite, or no episode is running.
+        """
+        self._require_open()
+        if not self._ready:
+            raise EvodevoError("step() called before reset(); call env.reset(seed=...) first")
+        dx, dy, dz, da = self._parse_action(action)
+        cid = self._cid
+        arm = self._arm
+        self._env_step += 1
+        arm.apply_action(dx, dy, dz, da, OPEN_FINGER_ANGLE)
+        last = self._env_step >= self.max_steps
+        for _ in range(self.action_repeat):
+            p.stepSimulation(physicsClientId=cid)
+            # The original checks termination inside the loop: on the last step it stops at once.
+            if last:
+                break
+        if arm.end_effector_position()[2] <= GRASP_HEIGHT:
+            self._grasp()
+        reward = self._reward()
+        terminated = self._attempted_grasp
+        truncated = (not terminated) and self._env_step >= self.max_steps
+        info = {"proprio": self._proprio(), "is_success": reward == 1.0}
+        return self._observation(), reward, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """A ``RENDER_SIZE`` square RGB image from the observation camera (``"rgb_array"``)."""
+        if self.render_mode != "rgb_array":
+            return None
+        self._require_open()
+        if self._view_matrix is None:
+            raise EvodevoError("render() called before reset(); call env.reset(seed=...) first")
+        proj = p.computeProjectionMatrixFOV(20.0, 1.0, 0.01, 10, physicsClientId=self._cid)
+        return self._camera(RENDER_SIZE, RENDER_SIZE, proj)
+
+    def close(self) -> None:
+        """Disconnect this instance's physics client (idempotent)."""
+        if getattr(self, "_connected", False):
+            self._connected = False
+            if p.isConnected(self._cid):
+                p.disconnect(self._cid)
+
+    # ------------------------------------------------------------------ internals
+
+    def _require_open(self) -> None:
+        if not self._connected:
+            raise EvodevoError("this KukaDiverseObjectEnv is closed; make a new one")
+
+    def _parse_action(self, action: Any) -> tuple[float, float, float, float]:
+        if self.is_discrete:
+            if isinstance(action, np.ndarray) and action.shape == ():
+                action = action.item()
+            n = int(self.action_space.n)  # type: ignore[attr-defined]
+            if not isinstance(action, (int, np.integer)) or not 0 <= int(action) < n:
+                raise EvodevoError(
+                    f"discrete action must be an integer in [0, {n}), got {action!r}"
+                )
+            table = _DISCRETE_HEIGHT_HACK if self.height_hack else _DISCRETE_FREE
+            ux, uy, uz, ua = table[int(action)]
+            return DV * ux, DV * uy, DV * uz, DA * ua
+        shape = self.action_space.shape
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise EvodevoError(
+                f"action must be numeric with shape {shape}, got {action!r}"
+            ) from exc
+        if a.shape != shape:
+            raise EvodevoError(
+                f"action has shape {a.shape}, expected {shape} "
+                f"({'dx, dy, d-angle' if self.height_hack else 'dx, dy, dz, d-angle'})"
+            )
+        if not np.all(np.isfinite(a)):
+            raise EvodevoError(f"action must be finite, got {a.tolist()}")
+        a = np.clip(a, -1.0, 1.0)
+        if self.height_hack:
+            return DV * float(a[0]), DV * float(a[1]), -DV, DA * float(a[2])
+        return DV * float(a[0]), DV * float(a[1]), DV * float(a[2]), DA * float(a[3])
+
+    def _grasp(self) -> None:
+        """Close the fingers for 500 steps, then lift for 500 steps, as the original does."""
+        cid = self._cid
+        arm = self._arm
+        finger_angle = OPEN_FINGER_ANGLE
+        for _ in range(GRASP_CLOSE_STEPS):
+            arm.apply_action(0.0, 0.0, 0.0, 0.0, finger_angle)
+            p.stepSimulation(physicsClientId=cid)
+            finger_angle -= OPEN_FINGER_ANGLE / 100.0
+            if finger_angle < 0:
+                finger_angle = 0.0
+        for _ in range(GRASP_LIFT_STEPS):
+            arm.apply_action(0.0, 0.0, 0.001, 0.0, finger_angle)
+            p.stepSimulation(physicsClientId=cid)
+            finger_angle -= OPEN_FINGER_ANGLE / 100.0
+            if finger_angle < 0:
+                finger_angle = 0.0
+        self._attempted_grasp = True
+
+    def _reward(self) -> float:
+        for uid in self._object_uids:
+            pos, _ = p.getBasePositionAndOrientation(uid, physicsClientId=self._cid)
+            if pos[2] > SUCCESS_HEIGHT:
+                return 1.0
+        return 0.0
+
+    def _proprio(self) -> np.ndarray:
+        x, y, z = self._arm.end_effector_position()
+        raw = np.array([x, y, z, self._arm.finger_opening()], dtype=np.float64)
+        scaled = (raw - PROPRIO_CENTRE) / PROPRIO_HALF_RANGE
+        return np.clip(scaled, -PROPRIO_CLIP, PROPRIO_CLIP).astype(np.float32)
+
+    def _observation(self) -> np.ndarray:
+        return self._camera(self.width, self.height, self._proj_matrix)
+
+    def _camera(self, width: int, height: int, proj: Any) -> np.ndarray:
+        img = p.getCameraImage(
+            width=width,
+            height=height,
+            viewMatrix=self._view_matrix,
+            projectionMatrix=proj,
+            physicsClientId=self._cid,
+        )[2]
+        rgba = np.reshape(np.asarray(img, dtype=np.uint8), (height, width, 4))
+        return np.ascontiguousarray(rgba[:, :, :3])
+
+    def __del__(self) -> None:
+        # At interpreter shutdown pybullet may already be torn down.
+        with contextlib.suppress(Exception):
+            self.close()
+
+
+def _check_int(name: str, value: Any, low: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ConfigError(f"{name}={value!r} must be an integer >= {low}")
+
+
+def _check_unit(name: str, value: Any) -> None:
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{name}={value!r} must be a number in [0, 1]") from exc
+    if not 0.0 <= v <= 1.0:
+        raise ConfigError(f"{name}={value!r} must lie in [0, 1]")
