@@ -1,5 +1,191 @@
-"""``evodevo grn``: placeholder app, filled in by the grn package work."""
+"""``evodevo grn``: evolve, evaluate, ablate, plot and film the GRN controller (SPEC §2).
+
+Every command limits torch/BLAS to one thread first (``set_single_thread``); user errors raise
+:class:`~evodevo.errors.EvodevoError`, which the top-level CLI prints as one line.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
 
 import typer
 
-app = typer.Typer(help="grn commands", no_args_is_help=True)
+from evodevo.errors import EvodevoError
+
+__all__ = ["app"]
+
+app = typer.Typer(
+    help="GRN controller (thesis Chapter 4): evolve, evaluate, ablate, plot, video.",
+    no_args_is_help=True,
+)
+
+
+def _overrides(
+    population: int | None,
+    generations: int | None,
+    episodes: int | None,
+    seed: int | None,
+    controller: str | None,
+    blind: bool,
+    open_loop: bool,
+) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    if population is not None:
+        out.setdefault("evolution", {})["population"] = population
+    if generations is not None:
+        out.setdefault("evolution", {})["generations"] = generations
+    if episodes is not None:
+        out.setdefault("evaluation", {})["episodes"] = episodes
+    if seed is not None:
+        out["seed"] = seed
+    if open_loop:
+        if controller not in (None, "open_loop"):
+            raise EvodevoError(f"--open-loop and --controller {controller} contradict each other")
+        controller = "open_loop"
+    if controller is not None:
+        out["controller"] = controller
+    if blind:
+        out.setdefault("sensors", {})["blind"] = True
+    return out
+
+
+def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in extra.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+@app.command()
+def evolve(
+    out: Path = typer.Option(..., "--out", help="Run directory (created)."),
+    population: int | None = typer.Option(None, help="Genomes per generation [12]."),
+    generations: int | None = typer.Option(None, help="Maximum generations [15]."),
+    episodes: int | None = typer.Option(None, help="Episodes per evaluation [10]."),
+    workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
+    seed: int | None = typer.Option(None, help="Run seed [0]."),
+    config: Path | None = typer.Option(None, "--config", help="YAML config (configs/grn.yaml)."),
+    controller: str | None = typer.Option(None, help="Controller kind [plain]."),
+    blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
+    open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
+    resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress line per generation."),
+) -> None:
+    """Evolve a GRN (Algorithm 3) into OUT: best_genome.npz, encoder.pt, history.csv, summary.json."""
+    from evodevo.config import load_config
+    from evodevo.grn.config import GrnConfig
+    from evodevo.grn.evolution import evolve_run
+    from evodevo.parallel import set_single_thread
+    from evodevo.runs import read_json
+
+    set_single_thread()
+    ov = _overrides(population, generations, episodes, seed, controller, blind, open_loop)
+    if resume and config is None and (out / "config.json").is_file():
+        saved = read_json(out / "config.json").get("config", {})
+        cfg = load_config(GrnConfig, None, _merge(saved, ov))
+    else:
+        cfg = load_config(GrnConfig, config, ov)
+    summary = evolve_run(cfg, out, workers=workers, resume=resume, progress=not quiet)
+    typer.echo(
+        f"{summary['generations_run']} generations, {summary['episodes_run']} episodes, "
+        f"{summary['wall_s']:.0f} s; best training success {summary['best_training_success']:.2f}"
+        f"{' (early stop)' if summary['stopped_early'] else ''}; run in {out}"
+    )
+
+
+@app.command()
+def evaluate(
+    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
+    episodes: int | None = typer.Option(None, help="Test episodes [40]."),
+    objects: str = typer.Option("test", help="test (held-out objects) or train."),
+    noise: float = typer.Option(0.0, help="Visual-feature noise std (0.03 = robustness test)."),
+    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+    workers: int = typer.Option(1, help="Worker processes."),
+    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
+) -> None:
+    """Test the best genome on fixed seeds, beside the all-zero and random policies (SPEC §2.5)."""
+    from evodevo.grn.evaluation import evaluate_run
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers)
+    if as_json:
+        typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
+        return
+    n = res["episodes"]
+    typer.echo(f"{n} episodes on {objects} objects, test seed {res['test_seed']}, noise {noise:g}")
+    typer.echo(_fmt_rate("genome", res))
+    if "clean" in res:
+        typer.echo(_fmt_rate("genome (clean)", res["clean"]))
+        if res.get("retention") is not None:
+            typer.echo(f"  retention noisy/clean: {res['retention']:.2f}")
+    for name, b in res["baselines"].items():
+        typer.echo(_fmt_rate(name, b))
+
+
+def _fmt_rate(name: str, r: dict[str, Any]) -> str:
+    return (
+        f"  {name:<16} {100 * r['success_rate']:5.1f} % "
+        f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] ({r['successes']} successes)"
+    )
+
+
+@app.command()
+def ablate(
+    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
+    episodes: int | None = typer.Option(None, help="Test episodes per ablation [40]."),
+    objects: str = typer.Option("test", help="test or train objects."),
+    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+    workers: int = typer.Option(1, help="Worker processes."),
+) -> None:
+    """The nine ablations of SPEC §2.5 on the best genome: ablations.md/.csv and a figure."""
+    from evodevo.grn.ablations import run_ablations
+    from evodevo.grn.figures import plot_ablations
+    from evodevo.parallel import set_single_thread
+    from evodevo.runs import RunDir
+
+    set_single_thread()
+    if objects not in ("test", "train"):
+        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    run_ablations(run_dir, episodes, objects, seed, workers)
+    run = RunDir(run_dir, create=False)
+    (run.path / "figures").mkdir(exist_ok=True)
+    plot_ablations(run, run.path / "figures")
+    typer.echo((run.path / "ablations.md").read_text().rstrip())
+
+
+@app.command()
+def plot(
+    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
+) -> None:
+    """Draw all figures of the run into RUN_DIR/figures (records trace.npz first if missing)."""
+    from evodevo.grn.figures import plot_run
+    from evodevo.grn.recording import TRACE_FILE, record_trace
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    if not run_dir.is_dir():
+        raise EvodevoError(f"run directory {str(run_dir)!r} does not exist")
+    if not (run_dir / TRACE_FILE).is_file() and (run_dir / "best_genome.npz").is_file():
+        record_trace(run_dir)
+    for p in plot_run(run_dir):
+        typer.echo(str(p))
+
+
+@app.command()
+def video(
+    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
+    out: Path = typer.Option(..., "--out", help="GIF file to write."),
+    episode: int = typer.Option(0, help="Index of the test episode."),
+    objects: str = typer.Option("test", help="test or train objects."),
+) -> None:
+    """A GIF of the best genome on one test episode."""
+    from evodevo.grn.recording import record_video
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    if episode < 0:
+        raise EvodevoError(f"--episode {episode} must be >= 0")
+    typer.echo(str(record_video(run_dir, out, episode, objects)))

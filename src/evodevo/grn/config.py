@@ -1,0 +1,252 @@
+"""Typed configuration of the GRN method (SPEC §2; every constant of §2 is a default here).
+
+One :class:`GrnConfig` per run, in sections: ``dynamics`` (§2.1), ``sensors`` (§2.2),
+``genome`` (§2.3 initialisation and bounds), ``mutation`` (§2.4), ``evolution`` (§2.4),
+``evaluation`` (§2.4 training protocol and §2.5 test), ``env`` and ``open_loop`` (§2.5 control).
+Unknown keys and bad values raise :class:`~evodevo.errors.ConfigError` naming the key.
+
+>>> cfg = GrnConfig()
+>>> cfg.dynamics.n_genes, cfg.evolution.population, cfg.evolution.elites
+(50, 12, 3)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from evodevo.config import doc
+from evodevo.errors import ConfigError
+
+__all__ = [
+    "DynamicsConfig",
+    "SensorConfig",
+    "GenomeInitConfig",
+    "MutationConfig",
+    "EvolutionConfig",
+    "EvaluationConfig",
+    "EnvConfig",
+    "OpenLoopConfig",
+    "GrnConfig",
+]
+
+
+def _check_range(key: str, value: float, lo: float, hi: float | None = None) -> None:
+    if value < lo or (hi is not None and value > hi):
+        upper = f", {hi}]" if hi is not None else ", inf)"
+        raise ConfigError(f"{key}={value!r} must lie in [{lo}{upper}")
+
+
+def _check_bounds(key: str, pair: tuple[float, float]) -> None:
+    lo, hi = pair
+    if not lo < hi:
+        raise ConfigError(f"{key}={list(pair)!r} must be [low, high] with low < high")
+
+
+@dataclass
+class DynamicsConfig:
+    """Gene-expression dynamics, Eq. 4.1–4.4 (SPEC §2.1)."""
+
+    n_genes: int = doc(50, "number of genes n")
+    x0: float = doc(0.3, "initial expression x(0) of every gene")
+    dt: float = doc(0.05, "Euler time step of the expression update")
+    noise_std: float = doc(0.01, "std of the expression noise eta_i added each step")
+
+    def validate(self) -> None:
+        _check_range("n_genes", self.n_genes, 1)
+        _check_range("x0", self.x0, 0.0, 1.0)
+        if self.dt <= 0:
+            raise ConfigError(f"dt={self.dt!r} must be positive")
+        _check_range("noise_std", self.noise_std, 0.0)
+
+
+@dataclass
+class SensorConfig:
+    """The sensor vector s = [visual(4), proprio(4)] (SPEC §2.2)."""
+
+    n_visual: int = doc(4, "visual features after the evolved projection P (128 -> n_visual)")
+    n_proprio: int = doc(4, "proprioceptive values read from info['proprio']")
+    feature_dim: int = doc(128, "CNN encoder output size (32 channels x 2 x 2)")
+    blind: bool = doc(False, "replace the visual features by zeros (the blind-GRN control, §2.5)")
+
+    def validate(self) -> None:
+        _check_range("n_visual", self.n_visual, 0)
+        _check_range("n_proprio", self.n_proprio, 0)
+        if self.feature_dim != 128:
+            raise ConfigError(
+                f"feature_dim={self.feature_dim} is fixed to 128 by the encoder of SPEC §2.2"
+            )
+
+
+@dataclass
+class GenomeInitConfig:
+    """Genome initialisation distributions and parameter bounds (SPEC §2.1, §2.3)."""
+
+    ws_std: float = doc(0.3, "W_s ~ N(0, ws_std^2)")
+    wr_std: float = doc(0.1, "W_r ~ N(0, wr_std^2) on its present entries")
+    wr_density: float = doc(0.2, "probability that a regulatory entry is present at init")
+    wm_std: float = doc(0.2, "W_m ~ N(0, wm_std^2)")
+    p_std: float = doc(1.0, "P ~ N(0, p_std^2) (encoder output has unit L2 norm)")
+    theta_init: tuple[float, float] = doc((0.2, 0.8), "theta ~ U(low, high) at init")
+    delta_init: tuple[float, float] = doc((0.1, 0.9), "delta ~ U(low, high) at init")
+    alpha_init: tuple[float, float] = doc((0.5, 2.0), "alpha ~ U(low, high) at init")
+    theta_bounds: tuple[float, float] = doc((0.1, 1.0), "bounds of the thresholds theta")
+    delta_bounds: tuple[float, float] = doc((0.05, 1.0), "bounds of the decay rates delta")
+    alpha_bounds: tuple[float, float] = doc((0.1, 3.0), "bounds of the interaction strengths")
+
+    def validate(self) -> None:
+        for key in ("ws_std", "wr_std", "wm_std", "p_std"):
+            _check_range(key, getattr(self, key), 0.0)
+        _check_range("wr_density", self.wr_density, 0.0, 1.0)
+        for name in ("theta", "delta", "alpha"):
+            init = getattr(self, f"{name}_init")
+            bounds = getattr(self, f"{name}_bounds")
+            _check_bounds(f"{name}_init", init)
+            _check_bounds(f"{name}_bounds", bounds)
+            if init[0] < bounds[0] or init[1] > bounds[1]:
+                raise ConfigError(
+                    f"{name}_init={list(init)} must lie inside {name}_bounds={list(bounds)}"
+                )
+
+
+@dataclass
+class MutationConfig:
+    """The three mutation kinds of SPEC §2.4, each decided independently."""
+
+    p_struct: float = doc(0.1, "probability of toggling one random regulatory connection")
+    p_weight: float = doc(0.2, "probability, per matrix (W_s, W_r, W_m, P), of weight noise")
+    p_param: float = doc(0.2, "probability, per vector (theta, delta, alpha), of parameter noise")
+    sigma: float = doc(0.1, "std of weight and parameter noise")
+    struct_std: float = doc(0.1, "std of a newly added regulatory connection")
+    dense_regulatory_noise: bool = doc(
+        False,
+        "add weight noise to every W_r entry (the thesis' density artefact) not only present ones",
+    )
+
+    def validate(self) -> None:
+        for key in ("p_struct", "p_weight", "p_param"):
+            _check_range(key, getattr(self, key), 0.0, 1.0)
+        _check_range("sigma", self.sigma, 0.0)
+        _check_range("struct_std", self.struct_std, 0.0)
+
+
+@dataclass
+class EvolutionConfig:
+    """The optimiser of Algorithm 3 (SPEC §2.4)."""
+
+    population: int = doc(12, "genomes per generation")
+    generations: int = doc(15, "maximum number of generations")
+    elite_fraction: float = doc(
+        0.25, "fraction of the population passed on unchanged, floor(f·N): 3 of 12 (Algorithm 3)"
+    )
+    tournament: int = doc(3, "tournament size for picking the parents of the offspring")
+    early_stop_success: float = doc(
+        0.7, "training success of the best genome that triggers a retest"
+    )
+    retest_episodes: int = doc(20, "episodes of the early-stop retest (same clean/noisy protocol)")
+    retest_success: float = doc(0.5, "retest success at or above which evolution stops")
+    early_stop: bool = doc(True, "use the early stop at all")
+
+    @property
+    def elites(self) -> int:
+        """Number of elites, floor(elite_fraction · population)."""
+        return int(math.floor(self.elite_fraction * self.population + 1e-9))
+
+    def validate(self) -> None:
+        _check_range("population", self.population, 1)
+        _check_range("generations", self.generations, 1)
+        _check_range("elite_fraction", self.elite_fraction, 0.0, 1.0)
+        _check_range("tournament", self.tournament, 1)
+        _check_range("early_stop_success", self.early_stop_success, 0.0, 1.0)
+        _check_range("retest_episodes", self.retest_episodes, 1)
+        _check_range("retest_success", self.retest_success, 0.0, 1.0)
+
+
+@dataclass
+class EvaluationConfig:
+    """Episodes per fitness evaluation (SPEC §2.4) and the test protocol (SPEC §2.5)."""
+
+    episodes: int = doc(10, "episodes per genome per generation")
+    noisy_fraction: float = doc(0.3, "fraction of those episodes with visual-feature noise")
+    visual_noise: float = doc(
+        0.03, "std of the noise added to the visual features of noisy episodes"
+    )
+    test_episodes: int = doc(40, "episodes of the test (fixed seeds)")
+    test_seed: int = doc(10_000, "seed of the fixed test episodes (independent of the run seed)")
+    lockstep: int = doc(4, "episodes one worker steps together (one encoder batch per env step)")
+
+    def validate(self) -> None:
+        _check_range("episodes", self.episodes, 1)
+        _check_range("noisy_fraction", self.noisy_fraction, 0.0, 1.0)
+        _check_range("visual_noise", self.visual_noise, 0.0)
+        _check_range("test_episodes", self.test_episodes, 1)
+        _check_range("lockstep", self.lockstep, 1)
+
+
+@dataclass
+class EnvConfig:
+    """The environment the controller drives (SPEC §2.6, §3)."""
+
+    id: str = doc("evodevo/KukaDiverseObject-v0", "Gymnasium id (evodevo.envs is imported first)")
+    kwargs: dict[str, Any] = doc({"max_steps": 8}, "keyword arguments of gymnasium.make")
+
+    def validate(self) -> None:
+        if not self.id:
+            raise ConfigError("id must name a Gymnasium environment")
+        if "test_objects" in self.kwargs:
+            raise ConfigError(
+                "kwargs.test_objects is chosen by the command (training on training objects, "
+                "evaluate --objects test|train); remove it from the config"
+            )
+
+
+@dataclass
+class OpenLoopConfig:
+    """The best open-loop policy control of SPEC §2.5: a fixed action sequence, evolved."""
+
+    steps: int = doc(8, "length of the action sequence (the env's max_steps; the last repeats)")
+    init_low: float = doc(-1.0, "actions ~ U(init_low, init_high) at init")
+    init_high: float = doc(1.0, "actions ~ U(init_low, init_high) at init")
+    p_mutate: float = doc(
+        1.0,
+        "probability that an offspring's sequence is perturbed (one matrix: else it is a clone)",
+    )
+    sigma: float = doc(0.2, "std of the perturbation; actions are clipped to [-1, 1]")
+
+    def validate(self) -> None:
+        _check_range("steps", self.steps, 1)
+        _check_bounds("init_low/init_high", (self.init_low, self.init_high))
+        _check_range("p_mutate", self.p_mutate, 0.0, 1.0)
+        _check_range("sigma", self.sigma, 0.0)
+
+
+@dataclass
+class GrnConfig:
+    """Everything a GRN run needs (SPEC §2). Saved resolved in ``config.json`` of the run."""
+
+    seed: int = doc(0, "run seed: encoder weights, genomes, episode seeds, noise")
+    controller: str = doc(
+        "plain",
+        "controller kind: plain | open_loop | a registered name | 'module:attr' of a ControllerKind",
+    )
+    dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
+    sensors: SensorConfig = field(default_factory=SensorConfig)
+    genome: GenomeInitConfig = field(default_factory=GenomeInitConfig)
+    mutation: MutationConfig = field(default_factory=MutationConfig)
+    evolution: EvolutionConfig = field(default_factory=EvolutionConfig)
+    evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    env: EnvConfig = field(default_factory=EnvConfig)
+    open_loop: OpenLoopConfig = field(default_factory=OpenLoopConfig)
+
+    def validate(self) -> None:
+        if not self.controller:
+            raise ConfigError("controller must name a controller kind, e.g. plain")
+        if ":" not in self.controller:
+            from evodevo.grn.controller import controller_names
+
+            if self.controller not in controller_names():
+                raise ConfigError(
+                    f"controller={self.controller!r} is not known; choose one of "
+                    f"{controller_names()} or give 'module:attr'"
+                )

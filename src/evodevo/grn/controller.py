@@ -1,0 +1,289 @@
+"""Controllers: encoder features + a batch of genomes + dynamics → one action per env (SPEC §2.1–2.2).
+
+A *controller kind* is a pluggable piece with one interface (:class:`ControllerKind`):
+``init_genome`` / ``mutate`` / ``load_genome`` for the optimiser, and the vectorised runtime
+``reset_state`` / ``step`` for the evaluator, which calls ``step`` once per env step for all
+the episodes it runs in lockstep. Kinds are looked up by name in a registry
+(:func:`register_controller`, :func:`make_controller`); ``config.controller`` may also be a
+``"module:attr"`` path, so a new kind (e.g. a neuromodulated GRN, SPEC §5) plugs in without
+editing this package. The trivial policies of SPEC §2.5 (all-zero and uniform-random actions)
+share the runtime interface (:data:`BASELINES`).
+
+>>> import numpy as np
+>>> from evodevo.grn.config import GrnConfig
+>>> ctrl = make_controller(GrnConfig(), n_actions=3)
+>>> g = ctrl.init_genome(np.random.default_rng(0))
+>>> state = ctrl.reset_state([g, g])
+>>> a = ctrl.step(state, np.arange(2), np.zeros((2, 128)), np.zeros((2, 4)),
+...               [np.random.default_rng(1), np.random.default_rng(2)], np.array([False, True]))
+>>> a.shape
+(2, 3)
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from evodevo.errors import EvodevoError
+from evodevo.grn.dynamics import expression_step, motor_output
+from evodevo.grn.encoder import sensor_vector
+from evodevo.grn.genome import GrnGenome, init_genome, stack_genomes
+from evodevo.grn.mutation import mutate_genome
+
+__all__ = [
+    "Policy",
+    "ControllerKind",
+    "GrnState",
+    "PlainGrnController",
+    "ZeroPolicy",
+    "RandomPolicy",
+    "BASELINES",
+    "register_controller",
+    "controller_names",
+    "make_controller",
+]
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """What the evaluator needs: a batched state and one vectorised step per env step."""
+
+    uses_encoder: bool
+
+    def reset_state(self, genomes: Sequence[Any]) -> Any:
+        """State for a batch of episodes, one genome per slot (same-shaped genomes)."""
+        ...
+
+    def step(
+        self,
+        state: Any,
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        """Advance slots ``idx`` (still running) by one step and return their actions (len(idx), A).
+
+        Args:
+            state: from :meth:`reset_state`; updated in place.
+            idx: indices of the slots to advance.
+            features: encoder features (len(idx), 128), or None if ``uses_encoder`` is False.
+            proprio: proprioceptive values (len(idx), 4).
+            rngs: one generator per slot in ``idx`` (per genome and episode).
+            noisy: per slot in ``idx``, whether the visual features get noise.
+        """
+        ...
+
+
+@runtime_checkable
+class ControllerKind(Policy, Protocol):
+    """A policy the optimiser can evolve."""
+
+    name: str
+
+    def init_genome(self, rng: np.random.Generator) -> Any:
+        """A random genome."""
+        ...
+
+    def mutate(self, genome: Any, rng: np.random.Generator) -> Any:
+        """A mutated copy."""
+        ...
+
+    def load_genome(self, path: str | Path) -> Any:
+        """A genome saved with ``genome.save(path, config)``, checked against this controller."""
+        ...
+
+    def connections(self, genome: Any) -> int:
+        """Structural size reported per generation (regulatory connections)."""
+        ...
+
+    def genome_from_arrays(self, arrays: dict[str, np.ndarray]) -> Any:
+        """Rebuild a genome from its ``arrays()`` (checkpoints)."""
+        ...
+
+
+@dataclass
+class GrnState:
+    """Batched runtime state of the plain GRN: stacked genomes and expression x (B, n)."""
+
+    genome: GrnGenome
+    x: np.ndarray
+
+
+class PlainGrnController:
+    """The GRN controller of SPEC §2 (Algorithm 2, vectorised).
+
+    Args:
+        config: a :class:`~evodevo.grn.config.GrnConfig`.
+        n_actions: action dimensions of the environment.
+    """
+
+    name = "plain"
+    uses_encoder = True
+
+    def __init__(self, config: Any, n_actions: int) -> None:
+        self.config = config
+        self.n_actions = int(n_actions)
+        self.dyn = config.dynamics
+        self.sensors = config.sensors
+        self.uses_encoder = not config.sensors.blind
+
+    @property
+    def n_sensors(self) -> int:
+        return int(self.sensors.n_visual + self.sensors.n_proprio)
+
+    def init_genome(self, rng: np.random.Generator) -> GrnGenome:
+        return init_genome(self.config, self.n_actions, rng)
+
+    def mutate(self, genome: GrnGenome, rng: np.random.Generator) -> GrnGenome:
+        return mutate_genome(genome, self.config, rng)
+
+    def load_genome(self, path: str | Path) -> GrnGenome:
+        return GrnGenome.load(path, self.n_sensors, self.n_actions, self.sensors.n_visual)
+
+    def connections(self, genome: GrnGenome) -> int:
+        return genome.connections()
+
+    def genome_from_arrays(self, arrays: dict[str, np.ndarray]) -> GrnGenome:
+        g = GrnGenome(**{n: arrays[n] for n in GrnGenome.names()})
+        g.check(self.n_sensors, self.n_actions, self.sensors.n_visual)
+        return g
+
+    def reset_state(self, genomes: Sequence[GrnGenome]) -> GrnState:
+        for g in genomes:
+            g.check(self.n_sensors, self.n_actions, self.sensors.n_visual)
+        batch = stack_genomes(genomes)
+        x = np.full((len(genomes), batch.theta.shape[-1]), self.dyn.x0)
+        return GrnState(batch, x)
+
+    def step(
+        self,
+        state: GrnState,
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        g = state.genome
+        n_visual, n = self.sensors.n_visual, state.x.shape[1]
+        vis_noise = np.zeros((len(idx), n_visual))
+        eta = np.zeros((len(idx), n))
+        noise_std = self.config.evaluation.visual_noise
+        for b, rng in enumerate(rngs):  # per-slot draws: results do not depend on batching
+            if noisy[b] and not self.sensors.blind:
+                vis_noise[b] = rng.normal(0.0, noise_std, n_visual)
+            if self.dyn.noise_std > 0:
+                eta[b] = rng.normal(0.0, self.dyn.noise_std, n)
+        s = sensor_vector(features, g.P[idx], proprio, vis_noise, blind=self.sensors.blind)
+        x = expression_step(
+            state.x[idx],
+            s,
+            g.W_s[idx],
+            g.W_r[idx],
+            g.theta[idx],
+            g.delta[idx],
+            g.alpha[idx],
+            self.dyn.dt,
+            eta,
+        )
+        state.x[idx] = x
+        return motor_output(x, g.W_m[idx])
+
+
+class ZeroPolicy:
+    """All-zero actions (SPEC §2.5 trivial policy)."""
+
+    uses_encoder = False
+
+    def __init__(self, config: Any, n_actions: int) -> None:
+        self.n_actions = int(n_actions)
+
+    def reset_state(self, genomes: Sequence[Any]) -> None:
+        return None
+
+    def step(
+        self,
+        state: Any,
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        return np.zeros((len(idx), self.n_actions))
+
+
+class RandomPolicy(ZeroPolicy):
+    """Uniform random actions in [-1, 1] (SPEC §2.5 trivial policy), from the per-episode rngs."""
+
+    def step(
+        self,
+        state: Any,
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        return np.stack([rng.uniform(-1.0, 1.0, self.n_actions) for rng in rngs])
+
+
+BASELINES: dict[str, type[ZeroPolicy]] = {"zero": ZeroPolicy, "random": RandomPolicy}
+"""The trivial policies measured beside every result (SPEC §2.5)."""
+
+_REGISTRY: dict[str, Callable[..., Any] | str] = {
+    "plain": PlainGrnController,
+    "open_loop": "evodevo.grn.open_loop:OpenLoopController",
+}
+
+
+def register_controller(name: str, factory: Callable[..., Any] | str) -> None:
+    """Register a controller kind: ``factory(config, n_actions)`` or a ``"module:attr"`` path."""
+    _REGISTRY[name] = factory
+
+
+def controller_names() -> list[str]:
+    """Registered controller names."""
+    return sorted(_REGISTRY)
+
+
+def _resolve(target: Callable[..., Any] | str) -> Callable[..., Any]:
+    if not isinstance(target, str):
+        return target
+    module, _, attr = target.partition(":")
+    try:
+        return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]
+    except (ImportError, AttributeError) as exc:
+        raise EvodevoError(f"controller {target!r} cannot be imported ({exc})") from None
+
+
+def make_controller(config: Any, n_actions: int) -> Any:
+    """Build ``config.controller`` (a registered name or ``"module:attr"``) for ``n_actions``."""
+    name = config.controller
+    if name in _REGISTRY:
+        factory = _resolve(_REGISTRY[name])
+    elif ":" in name:
+        factory = _resolve(name)
+    else:
+        raise EvodevoError(f"unknown controller {name!r}; choose one of {controller_names()}")
+    return factory(config, n_actions)
+
+
+def make_policy(config: Any, n_actions: int, baseline: str | None = None) -> Any:
+    """The controller of ``config``, or the trivial policy ``baseline`` ("zero" or "random")."""
+    if baseline is None:
+        return make_controller(config, n_actions)
+    if baseline not in BASELINES:
+        raise EvodevoError(f"unknown baseline {baseline!r}; choose one of {sorted(BASELINES)}")
+    return BASELINES[baseline](config, n_actions)
+
+
+__all__ += ["make_policy"]

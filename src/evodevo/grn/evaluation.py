@@ -1,0 +1,173 @@
+"""The test of SPEC §2.5: fixed test seeds, Wilson intervals, trivial policies on the same seeds.
+
+:func:`load_run` rebuilds a run (config, the saved encoder — never a fresh one — and the best
+genome) from its directory. :func:`evaluate_run` tests the best genome on ``episodes`` fixed
+seeds (derived from ``evaluation.test_seed``, not from the run seed, so every run and every
+baseline meets the same episodes) on test or training objects. With a visual-noise sigma > 0 the
+genome is tested clean and noisy and the retention noisy/clean is reported. The all-zero and
+uniform-random policies run on the same seeds in the same call. It writes
+``eval_<objects>_<noise>.json`` and ``eval_<objects>_<noise>_episodes.csv``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evodevo.config import from_dict, replace
+from evodevo.errors import EvodevoError
+from evodevo.grn.config import GrnConfig
+from evodevo.grn.controller import BASELINES, make_controller
+from evodevo.grn.encoder import Encoder
+from evodevo.grn.evaluator import Episode, EpisodeResults, Evaluator
+from evodevo.runs import RunDir, machine_info, write_json
+from evodevo.seeding import derive
+from evodevo.stats import rate
+
+__all__ = ["LoadedRun", "load_run", "test_episodes", "rate_dict", "evaluate_run", "eval_name"]
+
+
+@dataclass
+class LoadedRun:
+    """A run directory's config, encoder, controller kind and best genome."""
+
+    run: RunDir
+    config: GrnConfig
+    encoder: Encoder
+    genome: Any
+    kind: str
+
+
+def load_run(path: str | Path) -> LoadedRun:
+    """Load ``config.json``, ``encoder.pt`` and ``best_genome.npz`` of a GRN run directory."""
+    run = RunDir(path, create=False)
+    saved = run.read_config()
+    if saved.get("kind") != "grn":
+        raise EvodevoError(
+            f"{str(run.path)!r} holds a {saved.get('kind')!r} run, not a GRN run (evodevo grn evolve)"
+        )
+    config = from_dict(GrnConfig, saved["config"])
+    encoder = Encoder.load(run / "encoder.pt")
+    from evodevo.grn.evaluator import action_dims, make_env
+
+    env = make_env(config.env.id, config.env.kwargs)
+    try:
+        n_actions = action_dims(env.action_space)
+    finally:
+        env.close()
+    controller = make_controller(config, n_actions)
+    genome = controller.load_genome(run / "best_genome.npz")
+    return LoadedRun(run, config, encoder, genome, config.controller)
+
+
+def test_episodes(test_seed: int, n: int, test_objects: bool, noisy: bool = False) -> list[Episode]:
+    """The fixed test episodes: seeds ``derive(test_seed, i)``, i < n (shared by every policy)."""
+    return [Episode(derive(test_seed, i), noisy=noisy, test_objects=test_objects) for i in range(n)]
+
+
+test_episodes.__test__ = False  # type: ignore[attr-defined]  # not a pytest test
+
+
+def rate_dict(success: np.ndarray) -> dict[str, Any]:
+    """Success count, rate and Wilson 95 % interval of a boolean vector."""
+    r = rate(int(np.sum(success)), int(np.size(success)))
+    return asdict(r) | {"success_rate": r.rate}
+
+
+def eval_name(objects: str, noise: float) -> str:
+    """Base name of the evaluation files, e.g. ``eval_test_0`` or ``eval_test_0.03``."""
+    return f"eval_{objects}_{noise:g}"
+
+
+def _rows(policy: str, episodes: list[Episode], res: EpisodeResults) -> list[dict[str, Any]]:
+    return [
+        {
+            "policy": policy,
+            "episode": i,
+            "seed": ep.seed,
+            "noisy": int(ep.noisy),
+            "test_objects": int(ep.test_objects),
+            "reward": float(res.reward[0, i]),
+            "success": int(res.success[0, i]),
+            "steps": int(res.steps[0, i]),
+        }
+        for i, ep in enumerate(episodes)
+    ]
+
+
+def evaluate_run(
+    path: str | Path,
+    episodes: int | None = None,
+    objects: str = "test",
+    noise: float = 0.0,
+    seed: int | None = None,
+    workers: int = 1,
+    baselines: bool = True,
+) -> dict[str, Any]:
+    """Test a run's best genome (SPEC §2.5) and save the result files; returns the result dict.
+
+    Args:
+        path: run directory.
+        episodes: test episodes (default ``evaluation.test_episodes`` of the run's config).
+        objects: "test" (held-out objects) or "train".
+        noise: std of visual-feature noise; > 0 adds a noisy test and the retention.
+        seed: test seed (default ``evaluation.test_seed``).
+        workers: worker processes.
+        baselines: also run the all-zero and uniform-random policies on the same seeds.
+    """
+    if objects not in ("test", "train"):
+        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    if noise < 0:
+        raise EvodevoError(f"--noise {noise} must be >= 0")
+    loaded = load_run(path)
+    cfg = loaded.config
+    n = int(episodes if episodes is not None else cfg.evaluation.test_episodes)
+    if n < 1:
+        raise EvodevoError(f"--episodes {n} must be at least 1")
+    test_seed = int(seed if seed is not None else cfg.evaluation.test_seed)
+    is_test = objects == "test"
+    clean_eps = test_episodes(test_seed, n, is_test)
+    rows: list[dict[str, Any]] = []
+    out: dict[str, Any] = {}
+    with Evaluator(cfg, loaded.encoder, workers=workers) as ev:
+        clean = ev.evaluate([loaded.genome], clean_eps)
+        rows += _rows("genome", clean_eps, clean)
+        main = clean
+        if noise > 0:
+            noisy_eps = test_episodes(test_seed, n, is_test, noisy=True)
+            noisy_cfg = replace(cfg, evaluation=replace(cfg.evaluation, visual_noise=float(noise)))
+            main = ev.evaluate([loaded.genome], noisy_eps, config=noisy_cfg)
+            rows += _rows("genome_noisy", noisy_eps, main)
+            clean_rate = float(clean.success.mean())
+            out["clean"] = rate_dict(clean.success[0])
+            out["retention"] = float(main.success.mean()) / clean_rate if clean_rate > 0 else None
+        base: dict[str, Any] = {}
+        if baselines:
+            for name in BASELINES:
+                res = ev.evaluate([None], clean_eps, baseline=name)
+                rows += _rows(name, clean_eps, res)
+                base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+        env_steps = ev.env_steps
+    summary = rate_dict(main.success[0])
+    result = {
+        **{k: summary[k] for k in ("success_rate", "ci_low", "ci_high", "successes")},
+        "episodes": n,
+        "objects": objects,
+        "noise": float(noise),
+        "test_seed": test_seed,
+        "controller": loaded.kind,
+        "blind": cfg.sensors.blind,
+        "mean_steps": float(main.steps.mean()),
+        **out,
+        "baselines": base,
+        "env_steps": env_steps,
+        "run": str(loaded.run.path),
+        "machine": machine_info(),
+    }
+    name = eval_name(objects, noise)
+    write_json(loaded.run / f"{name}.json", result)
+    loaded.run.write_csv(f"{name}_episodes.csv", rows)
+    return result

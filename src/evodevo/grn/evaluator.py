@@ -1,0 +1,375 @@
+"""The evaluator (the *problem*, separate from the optimiser): genomes × episodes → rewards.
+
+:meth:`Evaluator.evaluate` runs every (genome, episode) pair and returns per-episode reward,
+success and step count. With ``workers == 1`` everything runs in this process; with more, over
+an :class:`evodevo.parallel.WorkerPool` whose initializer builds each worker's encoder once; a
+worker keeps its environments and reuses them for every task. Inside a task the worker steps up
+to ``evaluation.lockstep`` episodes together: one encoder forward and one controller call per
+env step for all of them.
+
+Results never depend on the number of workers or on the lockstep grouping: every episode is
+fully described by its env seed, its noisy flag and its noise seed (the controller's noise
+generator for that (genome, episode) pair), all derived from the run seed by the caller.
+
+>>> Episode(seed=3, noisy=False).noise_seed == Episode(seed=3, noisy=True).noise_seed
+True
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from evodevo.errors import EvodevoError
+from evodevo.grn.encoder import Encoder
+from evodevo.parallel import WorkerPool
+from evodevo.seeding import derive
+
+__all__ = [
+    "Episode",
+    "EpisodeResults",
+    "Evaluator",
+    "make_env",
+    "action_dims",
+    "run_episodes",
+    "NOISE_KEY",
+]
+
+NOISE_KEY = 7
+"""Key of an episode's controller-noise stream under its env seed."""
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One episode: env reset seed, whether the visual features get noise, which objects."""
+
+    seed: int
+    noisy: bool = False
+    test_objects: bool = False
+
+    @property
+    def noise_seed(self) -> int:
+        """Seed of the controller's noise generator (the same for every genome: common numbers)."""
+        return derive(self.seed, NOISE_KEY)
+
+
+@dataclass
+class EpisodeResults:
+    """Per-episode outcomes, arrays of shape (genomes, episodes)."""
+
+    reward: np.ndarray
+    success: np.ndarray
+    steps: np.ndarray
+    wall_s: float = 0.0
+
+    @property
+    def success_rate(self) -> np.ndarray:
+        """Success rate per genome."""
+        return np.asarray(self.success.mean(axis=1), dtype=float)
+
+    @property
+    def env_steps(self) -> int:
+        return int(self.steps.sum())
+
+
+def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) -> gym.Env[Any, Any]:
+    """``gymnasium.make`` after importing ``evodevo.envs`` for ``evodevo/`` ids."""
+    if env_id.startswith("evodevo/"):
+        try:
+            importlib.import_module("evodevo.envs")
+        except ImportError as exc:
+            raise EvodevoError(
+                f"environment {env_id!r} needs evodevo.envs, which failed to import ({exc}); "
+                "install the kuka extra: pip install -e '.[kuka]'"
+            ) from None
+    try:
+        return gym.make(env_id, **{**(kwargs or {}), **extra})
+    except gym.error.Error as exc:
+        raise EvodevoError(f"cannot make environment {env_id!r}: {exc}") from None
+
+
+def action_dims(space: gym.Space[Any]) -> int:
+    """Action dimensions of a flat Box space; anything else cannot be driven by a GRN."""
+    if not isinstance(space, gym.spaces.Box) or len(space.shape) != 1:
+        raise EvodevoError(
+            f"the GRN drives a flat continuous Box action space; this environment has {space}. "
+            "Use an environment with continuous actions (e.g. the Kuka env with its height hack)"
+        )
+    return int(space.shape[0])
+
+
+def _scale_actions(a: np.ndarray, space: gym.spaces.Box) -> np.ndarray:
+    """Map actions in [-1, 1] to the Box bounds (identity for Box(-1, 1))."""
+    lo, hi = space.low.astype(np.float64), space.high.astype(np.float64)
+    if np.all(lo == -1.0) and np.all(hi == 1.0):
+        return a.astype(space.dtype)
+    return (lo + (a + 1.0) * 0.5 * (hi - lo)).astype(space.dtype)
+
+
+def _proprio(info: dict[str, Any], n: int) -> np.ndarray:
+    p = info.get("proprio")
+    if p is None:
+        return np.zeros(n)
+    p = np.asarray(p, dtype=np.float64).reshape(-1)
+    if p.shape[0] != n:
+        raise EvodevoError(f"info['proprio'] has {p.shape[0]} values; the controller expects {n}")
+    return p
+
+
+def run_episodes(
+    envs: Sequence[gym.Env[Any, Any]],
+    encoder: Encoder | None,
+    policy: Any,
+    genomes: Sequence[Any],
+    episodes: Sequence[Episode],
+    n_proprio: int = 4,
+    record: bool = False,
+) -> dict[str, Any]:
+    """Run ``len(episodes)`` episodes in lockstep, slot b driving ``envs[b]`` with ``genomes[b]``.
+
+    Returns:
+        ``{"reward", "success", "steps"}`` arrays of length B, and with ``record`` the per-step
+        expression ``x`` (list of (B, n) arrays, when the policy has one), ``actions`` and
+        ``frames`` (observations) for figures.
+    """
+    n_b = len(episodes)
+    if len(envs) < n_b or len(genomes) != n_b:
+        raise ValueError("run_episodes needs one env and one genome per episode")
+    obs, prop = [], []
+    for b, ep in enumerate(episodes):
+        o, info = envs[b].reset(seed=int(ep.seed))
+        obs.append(o)
+        prop.append(_proprio(info, n_proprio))
+    obs_arr, prop_arr = np.stack(obs), np.stack(prop)
+    rngs = [np.random.default_rng(ep.noise_seed) for ep in episodes]
+    noisy = np.array([ep.noisy for ep in episodes])
+    state = policy.reset_state(list(genomes))
+    reward = np.zeros(n_b)
+    success = np.zeros(n_b, dtype=bool)
+    steps = np.zeros(n_b, dtype=int)
+    active = np.ones(n_b, dtype=bool)
+    trace: dict[str, list[Any]] = {"x": [], "actions": [], "frames": []}
+    if record:
+        trace["frames"].append(obs_arr.copy())
+    while active.any():
+        idx = np.flatnonzero(active)
+        feats = encoder.features(obs_arr[idx]) if (policy.uses_encoder and encoder) else None
+        actions = policy.step(state, idx, feats, prop_arr[idx], [rngs[i] for i in idx], noisy[idx])
+        if not np.all(np.isfinite(actions)):
+            raise EvodevoError("the controller produced non-finite actions")
+        for j, b in enumerate(idx):
+            env = envs[b]
+            o, r, term, trunc, info = env.step(_scale_actions(actions[j], env.action_space))
+            obs_arr[b] = o
+            prop_arr[b] = _proprio(info, n_proprio)
+            reward[b] += float(r)
+            steps[b] += 1
+            if term or trunc:
+                active[b] = False
+                success[b] = bool(info.get("is_success", float(r) > 0))
+        if record:
+            if hasattr(state, "x"):
+                trace["x"].append(np.array(state.x, copy=True))
+            trace["actions"].append(np.array(actions, copy=True))
+            trace["frames"].append(obs_arr.copy())
+    out: dict[str, Any] = {"reward": reward, "success": success, "steps": steps}
+    if record:
+        out.update(trace)
+    return out
+
+
+@dataclass
+class _WorkerContext:
+    env_id: str
+    env_kwargs: dict[str, Any]
+    encoder: Encoder | None
+    envs: dict[bool, list[gym.Env[Any, Any]]] = field(default_factory=dict)
+    policies: dict[str, Any] = field(default_factory=dict)
+
+    def get_envs(self, test_objects: bool, n: int) -> list[gym.Env[Any, Any]]:
+        pool = self.envs.setdefault(test_objects, [])
+        while len(pool) < n:
+            pool.append(make_env(self.env_id, self.env_kwargs, test_objects=test_objects))
+        return pool[:n]
+
+    def close(self) -> None:
+        for pool in self.envs.values():
+            for env in pool:
+                env.close()
+        self.envs.clear()
+
+
+_CONTEXTS: dict[str, _WorkerContext] = {}
+
+
+def _init_worker(
+    key: str, env_id: str, env_kwargs: dict[str, Any], encoder_state: dict[str, Any] | None
+) -> None:
+    """Worker initializer: build the encoder once; environments are made on first use."""
+    encoder = Encoder(encoder_state) if encoder_state is not None else None
+    _CONTEXTS[key] = _WorkerContext(env_id, dict(env_kwargs), encoder)
+
+
+@dataclass
+class _Task:
+    key: str
+    policy_key: str
+    config: Any
+    n_actions: int
+    baseline: str | None
+    genomes: list[Any]
+    episodes: list[Episode]
+
+
+def _run_task(task: _Task) -> dict[str, np.ndarray]:
+    from evodevo.grn.controller import make_policy
+
+    ctx = _CONTEXTS.get(task.key)
+    if ctx is None:  # pragma: no cover - the pool always runs the initializer first
+        raise EvodevoError("worker was not initialised for this evaluator")
+    policy = ctx.policies.get(task.policy_key)
+    if policy is None:
+        policy = make_policy(task.config, task.n_actions, task.baseline)
+        ctx.policies[task.policy_key] = policy
+    by_objects: dict[bool, list[int]] = {}
+    for i, ep in enumerate(task.episodes):
+        by_objects.setdefault(ep.test_objects, []).append(i)
+    n = len(task.episodes)
+    out = {"reward": np.zeros(n), "success": np.zeros(n, bool), "steps": np.zeros(n, int)}
+    for test_objects, ids in by_objects.items():
+        envs = ctx.get_envs(test_objects, len(ids))
+        res = run_episodes(
+            envs,
+            ctx.encoder,
+            policy,
+            [task.genomes[i] for i in ids],
+            [task.episodes[i] for i in ids],
+            n_proprio=task.config.sensors.n_proprio,
+        )
+        for k in out:
+            out[k][ids] = res[k]
+    return out
+
+
+def _shape_key(genome: Any) -> tuple[Any, ...]:
+    if genome is None:
+        return ()
+    arrays = genome.arrays() if hasattr(genome, "arrays") else {}
+    return tuple((k, v.shape) for k, v in sorted(arrays.items()))
+
+
+class Evaluator:
+    """Scores genomes on episodes, in-process or over worker processes.
+
+    Args:
+        config: the run's :class:`~evodevo.grn.config.GrnConfig`.
+        encoder: the run's encoder (None for policies that do not look).
+        workers: worker processes; 1 runs in this process.
+        max_retries: resubmissions of a task whose worker died.
+
+    Use as a context manager, or call :meth:`close`.
+    """
+
+    def __init__(
+        self, config: Any, encoder: Encoder | None, workers: int = 1, max_retries: int = 1
+    ) -> None:
+        self.config = config
+        self.key = uuid.uuid4().hex
+        probe = make_env(config.env.id, config.env.kwargs)
+        try:
+            self.action_space = probe.action_space
+            self.n_actions = action_dims(probe.action_space)
+        finally:
+            probe.close()
+        state = {k: v.clone() for k, v in encoder.weights().items()} if encoder else None
+        self.pool = WorkerPool(
+            workers,
+            initializer=_init_worker,
+            initargs=(self.key, config.env.id, dict(config.env.kwargs), state),
+            max_retries=max_retries,
+        )
+        self.episodes_run = 0
+        self.env_steps = 0
+        self._policy_counter = itertools.count()
+
+    def __enter__(self) -> Evaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Shut the workers down and close this process' environments."""
+        self.pool.close()
+        ctx = _CONTEXTS.pop(self.key, None)
+        if ctx is not None:
+            ctx.close()
+
+    def evaluate(
+        self,
+        genomes: Sequence[Any],
+        episodes: Sequence[Episode],
+        config: Any | None = None,
+        baseline: str | None = None,
+    ) -> EpisodeResults:
+        """Run every genome on every episode.
+
+        Args:
+            genomes: genomes of the controller kind of ``config`` (ignored entries for baselines).
+            episodes: the episodes, the same for every genome.
+            config: a config overriding the evaluator's (e.g. an ablation without noise).
+            baseline: "zero" or "random" to run a trivial policy instead (genomes may be [None]).
+
+        Returns:
+            (len(genomes), len(episodes)) arrays.
+        """
+        cfg = config if config is not None else self.config
+        policy_key = f"{baseline}|{cfg!r}"
+        lockstep = cfg.evaluation.lockstep
+        items = [(g, e) for g in range(len(genomes)) for e in range(len(episodes))]
+        tasks: list[_Task] = []
+        chunks: list[list[tuple[int, int]]] = []
+        current: list[tuple[int, int]] = []
+        for item in items:
+            if current and (
+                len(current) >= lockstep
+                or _shape_key(genomes[current[0][0]]) != _shape_key(genomes[item[0]])
+            ):
+                chunks.append(current)
+                current = []
+            current.append(item)
+        if current:
+            chunks.append(current)
+        for chunk in chunks:
+            tasks.append(
+                _Task(
+                    self.key,
+                    policy_key,
+                    cfg,
+                    self.n_actions,
+                    baseline,
+                    [genomes[g] for g, _ in chunk],
+                    [episodes[e] for _, e in chunk],
+                )
+            )
+        t0 = time.perf_counter()
+        results = self.pool.map(_run_task, tasks)
+        shape = (len(genomes), len(episodes))
+        out = EpisodeResults(np.zeros(shape), np.zeros(shape, bool), np.zeros(shape, int))
+        for chunk, res in zip(chunks, results, strict=True):
+            for j, (g, e) in enumerate(chunk):
+                out.reward[g, e] = res["reward"][j]
+                out.success[g, e] = res["success"][j]
+                out.steps[g, e] = res["steps"][j]
+        out.wall_s = time.perf_counter() - t0
+        self.episodes_run += out.reward.size
+        self.env_steps += out.env_steps
+        return out

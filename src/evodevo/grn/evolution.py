@@ -1,0 +1,376 @@
+"""The optimiser of Algorithm 3 (SPEC §2.4), with hooks for progress, checkpoints and early stop.
+
+Each generation: every genome (elites included) is evaluated on the SAME fresh episodes
+(common random numbers; 70 % clean, 30 % with visual-feature noise), scored with Eq. 4.6 and
+ranked; if the best genome's training success reaches ``early_stop_success`` it is retested on
+``retest_episodes`` new episodes (same protocol) and evolution stops when the retest reaches
+``retest_success``. Otherwise the best ``elites`` pass unchanged and the rest of the next
+population are mutated copies of tournament-picked parents.
+
+The optimiser knows nothing of GRNs: the controller kind (``init_genome``, ``mutate``) and the
+:class:`~evodevo.grn.evaluator.Evaluator` are passed in, so the open-loop control and later kinds
+reuse this loop. :func:`evolve_run` wires it to a run directory: ``encoder.pt``,
+``config.json``, ``history.csv``, ``best_genome.npz``, ``summary.json`` and an atomic
+checkpoint after every generation (population, RNG state, history) so ``resume`` continues
+exactly where an interrupted run stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evodevo.config import to_dict
+from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.grn.encoder import Encoder
+from evodevo.grn.evaluator import Episode, Evaluator
+from evodevo.grn.fitness import fitness_matrix
+from evodevo.grn.genome import load_arrays, save_arrays
+from evodevo.grn.selection import rank, tournament
+from evodevo.runs import RunDir, machine_info
+from evodevo.seeding import derive, np_rng
+
+__all__ = [
+    "GenerationRecord",
+    "Hook",
+    "ProgressPrinter",
+    "Checkpointer",
+    "Evolution",
+    "training_episodes",
+    "evolve_run",
+    "EVOLUTION_KEY",
+    "EPISODE_KEY",
+    "RETEST_KEY",
+]
+
+EVOLUTION_KEY = 2
+"""Seed stream of the optimiser (initial genomes, mutations, tournaments)."""
+EPISODE_KEY = 3
+"""Seed stream of the training episodes (per generation)."""
+RETEST_KEY = 4
+"""Seed stream of the early-stop retest episodes (per generation)."""
+CHECKPOINT_FILE = "checkpoint.npz"
+
+
+def training_episodes(
+    seed: int, key: int, generation: int, count: int, noisy_fraction: float
+) -> list[Episode]:
+    """``count`` episodes for ``generation``: the last round(noisy_fraction·count) are noisy."""
+    n_noisy = int(round(noisy_fraction * count))
+    return [
+        Episode(derive(seed, key, generation, i), noisy=i >= count - n_noisy) for i in range(count)
+    ]
+
+
+@dataclass
+class GenerationRecord:
+    """One row of ``history.csv``."""
+
+    generation: int
+    best_fitness: float
+    mean_fitness: float
+    best_success: float
+    mean_success: float
+    best_connections: int
+    mean_connections: float
+    retest_success: float
+    episodes: int
+    env_steps: int
+    eval_s: float
+    evals_per_s: float
+    elapsed_s: float
+
+
+class Hook:
+    """Callbacks of the optimiser; override what you need."""
+
+    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
+        """After a generation was evaluated and the next population bred."""
+
+    def on_end(self, evo: Evolution) -> None:
+        """When evolution stops (budget spent or early stop)."""
+
+
+class ProgressPrinter(Hook):
+    """One progress line per generation on stderr."""
+
+    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
+        r = record
+        retest = "" if np.isnan(r.retest_success) else f" retest {r.retest_success:.2f}"
+        print(
+            f"gen {r.generation + 1:>3}/{evo.config.evolution.generations} "
+            f"best F {r.best_fitness:6.2f} mean F {r.mean_fitness:6.2f} "
+            f"best success {r.best_success:.2f}{retest} connections {r.best_connections} "
+            f"{r.evals_per_s:.2f} ep/s elapsed {r.elapsed_s:.0f}s",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+class Evolution:
+    """Algorithm 3 over any controller kind.
+
+    Args:
+        config: a :class:`~evodevo.grn.config.GrnConfig`.
+        controller: the controller kind (``init_genome``, ``mutate``, ``connections``,
+            ``genome_from_arrays``).
+        evaluator: scores genomes on episodes.
+        hooks: callbacks.
+    """
+
+    def __init__(
+        self, config: Any, controller: Any, evaluator: Evaluator, hooks: Sequence[Hook] = ()
+    ) -> None:
+        self.config = config
+        self.controller = controller
+        self.evaluator = evaluator
+        self.hooks = list(hooks)
+        self.rng = np_rng(config.seed, EVOLUTION_KEY)
+        self.population = [
+            controller.init_genome(self.rng) for _ in range(config.evolution.population)
+        ]
+        self.generation = 0
+        self.history: list[GenerationRecord] = []
+        self.best_genome: Any = None
+        self.stopped_early = False
+        self.elapsed_s = 0.0
+        self.episodes_run = 0
+        self.env_steps = 0
+
+    @property
+    def done(self) -> bool:
+        return self.stopped_early or self.generation >= self.config.evolution.generations
+
+    def step(self) -> GenerationRecord:
+        """Evaluate the current population, check the early stop, breed the next one."""
+        cfg, evo_cfg = self.config, self.config.evolution
+        t0 = time.perf_counter()
+        episodes = training_episodes(
+            cfg.seed,
+            EPISODE_KEY,
+            self.generation,
+            cfg.evaluation.episodes,
+            cfg.evaluation.noisy_fraction,
+        )
+        res = self.evaluator.evaluate(self.population, episodes)
+        fit = fitness_matrix(res.reward, res.success)
+        succ = res.success_rate
+        order = rank(fit)
+        best = int(order[0])
+        n_eps, steps = res.reward.size, res.env_steps
+        retest = float("nan")
+        self.best_genome = self.population[best]
+        if cfg.evolution.early_stop and succ[best] >= evo_cfg.early_stop_success:
+            re_eps = training_episodes(
+                cfg.seed,
+                RETEST_KEY,
+                self.generation,
+                evo_cfg.retest_episodes,
+                cfg.evaluation.noisy_fraction,
+            )
+            re = self.evaluator.evaluate([self.best_genome], re_eps)
+            retest = float(re.success_rate[0])
+            n_eps += re.reward.size
+            steps += re.env_steps
+            self.stopped_early = retest >= evo_cfg.retest_success
+        conns = [self.controller.connections(g) for g in self.population]
+        if not self.stopped_early and self.generation + 1 < evo_cfg.generations:
+            elites = [self.population[i] for i in order[: evo_cfg.elites]]
+            children = [
+                self.controller.mutate(
+                    self.population[tournament(fit, evo_cfg.tournament, self.rng)], self.rng
+                )
+                for _ in range(evo_cfg.population - len(elites))
+            ]
+            self.population = elites + children
+        eval_s = time.perf_counter() - t0
+        self.elapsed_s += eval_s
+        self.episodes_run += n_eps
+        self.env_steps += steps
+        record = GenerationRecord(
+            generation=self.generation,
+            best_fitness=float(fit[best]),
+            mean_fitness=float(fit.mean()),
+            best_success=float(succ[best]),
+            mean_success=float(succ.mean()),
+            best_connections=int(conns[best]),
+            mean_connections=float(np.mean(conns)),
+            retest_success=retest,
+            episodes=n_eps,
+            env_steps=steps,
+            eval_s=eval_s,
+            evals_per_s=n_eps / eval_s if eval_s > 0 else float("nan"),
+            elapsed_s=self.elapsed_s,
+        )
+        self.history.append(record)
+        self.generation += 1
+        for hook in self.hooks:
+            hook.on_generation(self, record)
+        return record
+
+    def run(self) -> Evolution:
+        """Step until the generation budget is spent or the early stop fires."""
+        while not self.done:
+            self.step()
+        for hook in self.hooks:
+            hook.on_end(self)
+        return self
+
+    # -- checkpoints -------------------------------------------------------------------------
+    def save_checkpoint(self, path: str | Path) -> None:
+        """Atomically save everything needed to continue exactly (no live handles)."""
+        arrays: dict[str, np.ndarray] = {}
+        for i, g in enumerate(self.population):
+            for name, a in g.arrays().items():
+                arrays[f"pop{i}__{name}"] = a
+        if self.best_genome is not None:
+            for name, a in self.best_genome.arrays().items():
+                arrays[f"best__{name}"] = a
+        meta = {
+            "controller": self.config.controller,
+            "seed": self.config.seed,
+            "population_size": len(self.population),
+            "generation": self.generation,
+            "stopped_early": self.stopped_early,
+            "elapsed_s": self.elapsed_s,
+            "episodes_run": self.episodes_run,
+            "env_steps": self.env_steps,
+            "rng_state": self.rng.bit_generator.state,
+            "history": [asdict(r) for r in self.history],
+        }
+        save_arrays(path, "grn_checkpoint", arrays, json.loads(json.dumps(meta, default=float)))
+
+    def load_checkpoint(self, path: str | Path) -> None:
+        """Restore a checkpoint written by :meth:`save_checkpoint` of the same config."""
+        arrays, meta = load_arrays(path, "grn_checkpoint")
+        if meta.get("controller") != self.config.controller or meta.get("seed") != self.config.seed:
+            raise CheckpointError(
+                f"{str(path)!r} belongs to controller {meta.get('controller')!r} seed "
+                f"{meta.get('seed')!r}, not {self.config.controller!r} seed {self.config.seed}"
+            )
+
+        def genome(prefix: str) -> Any:
+            sub = {k.split("__", 1)[1]: v for k, v in arrays.items() if k.startswith(prefix + "__")}
+            return self.controller.genome_from_arrays(sub) if sub else None
+
+        self.population = [genome(f"pop{i}") for i in range(int(meta["population_size"]))]
+        self.best_genome = genome("best")
+        self.generation = int(meta["generation"])
+        self.stopped_early = bool(meta["stopped_early"])
+        self.elapsed_s = float(meta["elapsed_s"])
+        self.episodes_run = int(meta["episodes_run"])
+        self.env_steps = int(meta["env_steps"])
+        self.rng.bit_generator.state = meta["rng_state"]
+        self.history = [GenerationRecord(**r) for r in meta["history"]]
+
+
+class Checkpointer(Hook):
+    """After every generation: checkpoint, ``history.csv``, ``best_genome.npz``, ``summary.json``."""
+
+    def __init__(self, run: RunDir) -> None:
+        self.run = run
+
+    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
+        evo.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)
+        self.write_outputs(evo)
+
+    def on_end(self, evo: Evolution) -> None:
+        self.write_outputs(evo)
+
+    def write_outputs(self, evo: Evolution) -> None:
+        rows = [asdict(r) for r in evo.history]
+        self.run.write_csv("history.csv", rows, list(GenerationRecord.__dataclass_fields__))
+        if evo.best_genome is not None:
+            evo.best_genome.save(self.run / "best_genome.npz", to_dict(evo.config))
+        self.run.write_summary(summarise_evolution(evo))
+
+
+def summarise_evolution(evo: Evolution) -> dict[str, Any]:
+    """The ``summary.json`` of an evolution run."""
+    h = evo.history
+    return {
+        "kind": "grn_evolve",
+        "controller": evo.config.controller,
+        "blind": evo.config.sensors.blind,
+        "seed": evo.config.seed,
+        "fitness_history": [r.best_fitness for r in h],
+        "mean_fitness_history": [r.mean_fitness for r in h],
+        "success_history": [r.best_success for r in h],
+        "connections_history": [r.best_connections for r in h],
+        "retest_history": [None if np.isnan(r.retest_success) else r.retest_success for r in h],
+        "generations_run": evo.generation,
+        "stopped_early": evo.stopped_early,
+        "done": evo.done,
+        "wall_s": evo.elapsed_s,
+        "episodes_run": evo.episodes_run,
+        "env_steps": evo.env_steps,
+        "best_fitness": h[-1].best_fitness if h else None,
+        "best_training_success": h[-1].best_success if h else None,
+        "budget": {
+            "population": evo.config.evolution.population,
+            "generations": evo.config.evolution.generations,
+            "episodes_per_evaluation": evo.config.evaluation.episodes,
+        },
+        "machine": machine_info(),
+    }
+
+
+def evolve_run(
+    config: Any,
+    out: str | Path,
+    workers: int = 1,
+    resume: bool = False,
+    hooks: Sequence[Hook] = (),
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Evolve per ``config`` into run directory ``out``; returns the summary.
+
+    Args:
+        config: the resolved :class:`~evodevo.grn.config.GrnConfig`.
+        out: run directory (created).
+        workers: worker processes for the evaluator.
+        resume: continue from ``out/checkpoints/checkpoint.npz`` (config must match).
+        hooks: extra callbacks.
+        progress: print one line per generation.
+    """
+    from evodevo.grn.controller import make_controller
+
+    run = RunDir(out)
+    ckpt = run.path / "checkpoints" / CHECKPOINT_FILE
+    cfg_dict = to_dict(config)
+    if resume:
+        if not ckpt.is_file():
+            raise EvodevoError(f"--resume: {str(ckpt)!r} does not exist; start without --resume")
+        saved = run.read_config().get("config")
+        if saved != cfg_dict:
+            raise EvodevoError(
+                f"--resume: the config differs from the one saved in {str(run / 'config.json')!r}; "
+                "resume with the same options or start a new run directory"
+            )
+        encoder = Encoder.load(run / "encoder.pt")
+    else:
+        if ckpt.is_file():
+            raise EvodevoError(
+                f"{str(run.path)!r} already holds a run; pass --resume to continue it or choose "
+                "another --out"
+            )
+        encoder = Encoder.from_seed(config.seed)
+        encoder.save(run / "encoder.pt")
+        run.write_config(cfg_dict, kind="grn")
+    with Evaluator(config, encoder, workers=workers) as evaluator:
+        controller = make_controller(config, evaluator.n_actions)
+        all_hooks: list[Hook] = [Checkpointer(run)]
+        if progress:
+            all_hooks.append(ProgressPrinter())
+        evo = Evolution(config, controller, evaluator, [*all_hooks, *hooks])
+        if resume:
+            evo.load_checkpoint(ckpt)
+        evo.run()
+    return summarise_evolution(evo)

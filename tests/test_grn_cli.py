@@ -1,0 +1,126 @@
+"""`evodevo grn` commands: tiny evolve/evaluate on the real Kuka env, the rest on the fake env."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from test_grn_fakeenv import FAKE_ID
+from typer.testing import CliRunner
+
+from evodevo.cli import app
+from evodevo.errors import EvodevoError
+
+runner = CliRunner()
+
+
+def invoke(*args: str):
+    res = runner.invoke(app, ["grn", *map(str, args)])
+    if res.exception is not None and not isinstance(res.exception, SystemExit):
+        raise res.exception
+    assert res.exit_code == 0, res.output
+    return res
+
+
+def test_evolve_and_evaluate_on_the_real_kuka_env(tmp_path):
+    pytest.importorskip("pybullet")
+    cfg = tmp_path / "tiny.yaml"
+    cfg.write_text("evolution:\n  early_stop: false\nevaluation:\n  lockstep: 2\n")
+    out = tmp_path / "run"
+    invoke(
+        "evolve",
+        "--population",
+        2,
+        "--generations",
+        1,
+        "--episodes",
+        1,
+        "--seed",
+        0,
+        "--config",
+        cfg,
+        "--out",
+        out,
+        "--quiet",
+    )
+    for name in ("best_genome.npz", "encoder.pt", "history.csv", "config.json", "summary.json"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["generations_run"] == 1 and summary["episodes_run"] == 2
+    assert 2 <= summary["env_steps"] <= 16
+    res = invoke("evaluate", out, "--episodes", 1, "--json")
+    result = json.loads(res.output.strip().splitlines()[-1])
+    assert result["episodes"] == 1 and set(result["baselines"]) == {"zero", "random"}
+    assert 0.0 <= result["ci_low"] <= result["success_rate"] <= result["ci_high"] <= 1.0
+    assert (out / "eval_test_0.json").is_file() and (out / "eval_test_0_episodes.csv").is_file()
+
+
+@pytest.fixture
+def fake_run(tmp_path):
+    cfg = tmp_path / "fake.yaml"
+    cfg.write_text(
+        f"env:\n  id: {FAKE_ID}\n  kwargs: {{max_steps: 8}}\n"
+        "evolution:\n  population: 3\n  generations: 2\n  elite_fraction: 0.34\n"
+        "evaluation:\n  episodes: 2\n  test_episodes: 6\n"
+    )
+    out = tmp_path / "run"
+    invoke("evolve", "--config", cfg, "--out", out, "--quiet")
+    return out
+
+
+def test_evaluate_json_noise_ablate_plot_video(fake_run, tmp_path):
+    res = invoke("evaluate", fake_run, "--noise", 0.03, "--objects", "train", "--json")
+    r = json.loads(res.output.strip().splitlines()[-1])
+    assert r["episodes"] == 6 and r["noise"] == 0.03 and "clean" in r and "retention" in r
+    assert r["baselines"]["zero"]["n"] == 6
+    res = invoke("ablate", fake_run, "--episodes", 4)
+    assert "no_regulation" in res.output and (fake_run / "ablations.csv").is_file()
+    res = invoke("plot", fake_run)
+    names = {p.rsplit("/", 1)[-1] for p in res.output.split()}
+    assert {
+        "fitness_success.png",
+        "connections.png",
+        "regulatory_heatmap.png",
+        "expression_trace.png",
+        "ablations.png",
+    } <= names
+    assert any(n.startswith("rolling_success_eval_train") for n in names)
+    gif = tmp_path / "ep.gif"
+    invoke("video", fake_run, "--out", gif)
+    assert gif.stat().st_size > 0
+
+
+def test_open_loop_and_blind_runs(tmp_path):
+    cfg = tmp_path / "fake.yaml"
+    cfg.write_text(
+        f"env:\n  id: {FAKE_ID}\nevolution:\n  population: 3\n  generations: 1\n  elite_fraction: 0.34\n"
+        "evaluation:\n  episodes: 2\n  test_episodes: 2\n"
+    )
+    invoke("evolve", "--config", cfg, "--open-loop", "--out", tmp_path / "ol", "--quiet")
+    r = json.loads(invoke("evaluate", tmp_path / "ol", "--json").output.strip().splitlines()[-1])
+    assert r["controller"] == "open_loop"
+    invoke("evolve", "--config", cfg, "--blind", "--out", tmp_path / "bl", "--quiet")
+    r = json.loads(invoke("evaluate", tmp_path / "bl", "--json").output.strip().splitlines()[-1])
+    assert r["blind"] is True
+
+
+def test_user_errors_are_clear(tmp_path, fake_run):
+    with pytest.raises(EvodevoError, match="does not exist"):
+        invoke("evaluate", tmp_path / "missing")
+    with pytest.raises(EvodevoError, match="choose test or train"):
+        invoke("evaluate", fake_run, "--objects", "both")
+    with pytest.raises(EvodevoError, match="controller='nope' is not known"):
+        invoke("evolve", "--controller", "nope", "--out", tmp_path / "x")
+    with pytest.raises(EvodevoError, match="already holds a run"):
+        invoke("evolve", "--config", fake_run.parent / "fake.yaml", "--out", fake_run)
+    # a genome with the wrong shape in the run directory
+    import numpy as np
+
+    from evodevo.grn.genome import save_arrays
+
+    arrays = dict(np.load(fake_run / "best_genome.npz"))
+    arrays.pop("__meta__")
+    arrays["W_m"] = np.zeros((50, 7))
+    save_arrays(fake_run / "best_genome.npz", "grn", arrays, {})
+    with pytest.raises(EvodevoError, match="W_m has shape"):
+        invoke("evaluate", fake_run)
