@@ -1,5 +1,177 @@
-"""``evodevo biarm``: placeholder app, filled in by the biarm package work."""
+"""``evodevo biarm``: train one run, compare variants over seeds, re-draw a report (SPEC §1).
+
+Examples::
+
+    evodevo biarm train --variant biarm --seed 0 --out runs/biarm_s0
+    evodevo biarm train --variant pnn --tasks CartPole-v1,Acrobot-v1 --episodes-scale 0.1 --out runs/x
+    evodevo biarm compare --variants biarm,pnn --seeds 0-4 --workers 2 --out runs/cmp
+    evodevo biarm report runs/cmp
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
 
 import typer
 
-app = typer.Typer(help="biarm commands", no_args_is_help=True)
+from evodevo.cli.common import parse_list, parse_seeds
+
+__all__ = ["app"]
+
+app = typer.Typer(
+    help="BIARM: neuromodulated progressive networks (SPEC §1).",
+    no_args_is_help=True,
+    add_completion=False,
+)
+
+
+def _load(
+    config: Path | None,
+    tasks: str | None,
+    episodes_scale: float | None,
+    overrides: list[str] | None = None,
+) -> Any:
+    """Config from YAML + CLI options; every input error raised here, before training."""
+    import yaml
+
+    from evodevo.config import load_config
+    from evodevo.errors import ConfigError
+    from evodevo.neuromod.config import BiarmConfig
+    from evodevo.neuromod.tasks import tasks_from_ids
+
+    extra: dict[str, Any] = {}
+    for item in overrides or []:
+        if "=" not in item:
+            raise ConfigError(f"--set {item!r} must look like key.sub=value")
+        key, value = item.split("=", 1)
+        node = extra
+        parts = key.strip().split(".")
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = yaml.safe_load(value)
+    if episodes_scale is not None:
+        if not episodes_scale > 0:
+            raise ConfigError(
+                f"--episodes-scale {episodes_scale} must be a positive number (e.g. 0.25)"
+            )
+        extra["episodes_scale"] = episodes_scale
+    cfg = load_config(BiarmConfig, config, extra)
+    ids = parse_list(tasks)
+    if ids:
+        from evodevo.config import replace
+
+        cfg = replace(cfg, tasks=tasks_from_ids(cfg, ids))
+    return cfg
+
+
+_SET_HELP = "Override a config key, e.g. --set eval.episodes=5 (repeatable)."
+
+
+@app.command()
+def train(
+    variant: str = typer.Option("biarm", help="biarm, pnn, no-da, no-5ht, no-ne or no-ach."),
+    tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
+    episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
+    seed: int = typer.Option(0, help="Run seed (every random stream derives from it)."),
+    config: Path | None = typer.Option(None, help="YAML config (configs/biarm.yaml keys)."),
+    set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
+    resume: bool = typer.Option(False, help="Continue from the last finished task in --out."),
+    quiet: bool = typer.Option(False, help="No progress bar."),
+    out: Path = typer.Option(..., help="Run directory."),
+) -> None:
+    """Train one variant through the task sequence into OUT."""
+    from evodevo.neuromod.tasks import resolve_tasks
+    from evodevo.neuromod.trainer import EpisodeInfo
+    from evodevo.neuromod.trainer import train as run_train
+    from evodevo.neuromod.variants import get_variant
+    from evodevo.parallel import set_single_thread
+
+    var = get_variant(variant)
+    cfg = _load(config, tasks, episodes_scale, set_)
+    resolve_tasks(cfg)
+    set_single_thread()
+    if quiet:
+        summary = run_train(cfg, var, seed, out, resume=resume)
+    else:
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+        with Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[info]}"),
+        ) as progress:
+            bars: dict[int, Any] = {}
+
+            def on_task(i: int, spec: Any) -> None:
+                bars[i] = progress.add_task(
+                    f"[{i + 1}] {spec.env_id}", total=spec.episodes, info=""
+                )
+
+            def hook(e: EpisodeInfo) -> None:
+                progress.update(
+                    bars[e.task],
+                    completed=e.episode + 1,
+                    info=f"return {e.ret:8.1f}  eps {e.epsilon:.3f}  lr {e.lr:.2e}",
+                )
+
+            summary = run_train(cfg, var, seed, out, resume=resume, hook=hook, on_task=on_task)
+    for t in summary["tasks"]:
+        typer.echo(
+            f"{t['env_id']:16s} initial {t['initial_return']:9.2f}  final {t['final_return']:9.2f}"
+            f"  retention {t['retention']:.3f}  {t['us_per_step']:.0f} µs/step"
+        )
+    typer.echo(f"wrote {out}/summary.json")
+
+
+@app.command()
+def compare(
+    variants: str = typer.Option("biarm,pnn", help="Comma-separated variants."),
+    seeds: str = typer.Option("0-4", help="Seeds, e.g. 0-4 or 0,2,5."),
+    episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
+    tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
+    workers: int = typer.Option(2, help="Worker processes."),
+    config: Path | None = typer.Option(None, help="YAML config."),
+    set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
+    out: Path = typer.Option(..., help="Output folder (runs/, tables, figures)."),
+) -> None:
+    """Run the variant x seed grid in parallel (resumable) and write tables and figures."""
+    from evodevo.errors import EvodevoError
+    from evodevo.neuromod.compare import run_grid, write_report
+    from evodevo.neuromod.variants import get_variant
+    from evodevo.parallel import set_single_thread
+
+    names = parse_list(variants) or []
+    if not names:
+        raise EvodevoError("--variants names no variant; e.g. biarm,pnn")
+    for v in names:
+        get_variant(v)
+    seed_list = parse_seeds(seeds)
+    cfg = _load(config, tasks, episodes_scale, set_)
+    set_single_thread()
+    done = run_grid(cfg, names, seed_list, out, workers=workers)
+    typer.echo(f"trained {len(done)} run(s); writing tables and figures")
+    report = write_report(out)
+    typer.echo(f"wrote {report}")
+
+
+@app.command()
+def report(
+    out: Path = typer.Argument(..., help="A folder written by `evodevo biarm compare`."),
+    figures: bool = typer.Option(True, help="Also re-draw the figures."),
+) -> None:
+    """Re-draw tables and figures from the saved runs, without re-running anything."""
+    from evodevo.neuromod.compare import write_report
+
+    typer.echo(f"wrote {write_report(out, figures=figures)}")
+
+
+@app.command("config")
+def show_config() -> None:
+    """Print every config key with its default and meaning."""
+    from evodevo.config import describe
+    from evodevo.neuromod.config import BiarmConfig
+
+    for key, default, doc in describe(BiarmConfig):
+        typer.echo(f"{key:32s} {default:28s} {doc}")

@@ -1,0 +1,193 @@
+"""The learner: column stack, neuromodulators, optimiser and the DQN update (SPEC §1.2-1.6).
+
+:class:`BiarmAgent` is the same class for every variant; the :class:`Variant` decides whether
+laterals are gated, whether the modules run (Eq. 3.1-3.6), drive the learning rate (Eq. 3.7)
+and the context gate (Eq. 3.8), and which modules are ablated.
+
+Hot path (per environment step): :meth:`act` (greedy forward under ``no_grad`` on a
+preallocated tensor), :meth:`observe` (module update in NumPy), :meth:`update` (one DQN
+gradient step). Frozen columns are computed once per update for the mini-batch states and
+next states together, without autograd.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from evodevo.neuromod.columns import Column, ProgressiveNet, huber
+from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.lr_modulation import set_lr
+from evodevo.neuromod.modules import Neuromodulators
+from evodevo.neuromod.replay import Batch
+from evodevo.neuromod.variants import Variant
+
+__all__ = ["BiarmAgent"]
+
+
+class BiarmAgent:
+    """Columns + modules + DQN update for one run.
+
+    Args:
+        cfg: the run config.
+        variant: which of the six variants.
+        obs_dim: ``d_max``.
+        seed: run seed (columns from ``derive(seed, 3, i)``, modules from ``derive(seed, 4)``).
+    """
+
+    def __init__(self, cfg: BiarmConfig, variant: Variant, obs_dim: int, seed: int) -> None:
+        self.cfg = cfg
+        self.variant = variant
+        self.obs_dim = obs_dim
+        self.seed = seed
+        self.modules: Neuromodulators | None = None
+        ctx_w: list[float] = list(cfg.modules.context_weights)
+        lr_w: list[float] = list(cfg.modules.lr_weights)
+        if variant.modulated:
+            self.modules = Neuromodulators(cfg.modules, obs_dim, seed, variant.ablated)
+            ctx_w = self.modules.to_internal(ctx_w).tolist()
+            self._lr_w = self.modules.to_internal(lr_w).astype(np.float64)
+            self.states_t: torch.Tensor | None = self.modules.state_t
+        else:
+            self._lr_w = np.asarray(lr_w, dtype=np.float64)
+            self.states_t = None
+        self.learned = variant.modulated and variant.gated and cfg.modules.learning == "learned"
+        self.net = ProgressiveNet(
+            obs_dim=obs_dim,
+            hidden=cfg.network.hidden,
+            gated=variant.gated,
+            adapter_dim=cfg.network.adapter_dim,
+            seed=seed,
+            context_weights=ctx_w,
+            learn_context=cfg.modules.learn_context_weights,
+        )
+        self.obs_t = torch.zeros(1, obs_dim)
+        self.obs_np = self.obs_t.numpy()[0]
+        self.col = -1
+        self.target: Column | None = None
+        self.optimizer: torch.optim.Optimizer | None = None
+        self.params: list[torch.nn.Parameter] = []
+        self.grad_steps = 0
+
+    # ------------------------------------------------------------------ tasks
+    def begin_task(self, n_actions: int) -> None:
+        """Freeze earlier columns, add column i, reset novelty, fresh target and Adam."""
+        self.net.add_column(n_actions)
+        self.col = self.net.n_columns - 1
+        self.target = self.net.make_target()
+        self.params = [p for p in self.net.current.parameters() if p.requires_grad]
+        if self.learned and self.col > 0 and self.modules is not None:
+            self.params += [p for p in self.modules.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.Adam(self.params, lr=self.cfg.dqn.lr, fused=True)
+        self.grad_steps = 0
+        if self.modules is not None:
+            self.modules.start_task()
+
+    def end_training(self) -> None:
+        """Freeze everything after the last task."""
+        self.net.freeze_all()
+
+    # ------------------------------------------------------------------ per step
+    def lr(self) -> float:
+        """Eq. 3.7 (modulated variants) or ``eta_base`` (PNN)."""
+        base = self.cfg.dqn.lr
+        if self.modules is None:
+            return base
+        return float(base * float(self.modules._s @ self._lr_w))
+
+    def gate(self) -> float:
+        """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
+        if self.states_t is None or not self.net.gated or self.col < 1:
+            return float("nan")
+        with torch.no_grad():
+            return float(self.net.current.context(self.states_t))
+
+    def act(self, eps: float, rng: np.random.Generator) -> int:
+        """Epsilon-greedy action for the observation already written into ``obs_np``."""
+        if rng.random() < eps:
+            return int(rng.integers(self.net.current.n_actions))
+        with torch.no_grad():
+            return int(self.net.q(self.obs_t, self.col, self.states_t).argmax())
+
+    def observe(self, obs: np.ndarray, reward: float) -> None:
+        """Module update for one environment step (Eq. 3.1-3.6); no-op for PNN."""
+        if self.modules is not None:
+            self.modules.step(obs, reward)
+
+    def update(self, batch: Batch) -> float:
+        """One DQN gradient step (SPEC §1.6) at the Eq. 3.7 learning rate; returns the loss."""
+        obs, nobs, act, rew, term, n_task = batch
+        dqn = self.cfg.dqn
+        col = self.col
+        column = self.net.current
+        target = self.target
+        assert target is not None and self.optimizer is not None
+        st = self.states_t
+        bsz = obs.shape[0]
+        if col > 0:
+            h1, h2 = self.net.features(torch.cat((obs, nobs)), col, st)
+            h1_on, h2_on, h1_nx, h2_nx = h1[:bsz], h2[:bsz], h1[bsz:], h2[bsz:]
+            ctx_on = ctx_nx = None
+            if self.net.gated:
+                assert st is not None
+                if self.learned:
+                    assert self.modules is not None
+                    ctx_on = column.context(self.modules.batch_targets(obs, rew, n_task))
+                else:
+                    ctx_on = column.context(st)
+                with torch.no_grad():
+                    ctx_nx = target.context(st)
+            q_all = column(obs, h1_on, h2_on, ctx_on)
+            with torch.no_grad():
+                q_next = target(nobs, h1_nx, h2_nx, ctx_nx).max(1).values
+        else:
+            q_all = column(obs)
+            with torch.no_grad():
+                q_next = target(nobs).max(1).values
+        q = q_all.gather(1, act.unsqueeze(1)).squeeze(1)
+        with torch.no_grad():
+            y = rew + dqn.gamma * (1.0 - term) * q_next
+        loss = huber(q, y, dqn.huber_delta)
+        opt = self.optimizer
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(self.params, dqn.grad_clip, foreach=True)
+        if self.modules is not None:
+            set_lr(opt, self.lr())
+        opt.step()
+        self.grad_steps += 1
+        if self.grad_steps % dqn.target_update == 0:
+            target.load_state_dict(column.state_dict())
+        return float(loss.detach())
+
+    # ------------------------------------------------------------------ evaluation
+    def greedy_q(self, x: torch.Tensor, col: int) -> torch.Tensor:
+        """Q-values of column ``col`` with the current scalar states (no autograd)."""
+        with torch.no_grad():
+            return self.net.q(x, col, self.states_t)
+
+    # ------------------------------------------------------------------ checkpoints
+    def state(self) -> dict[str, Any]:
+        """Everything needed to rebuild the agent between tasks (no optimiser: fresh per task)."""
+        out: dict[str, Any] = {
+            "net_config": self.net.config_dict(),
+            "net": self.net.state_dict(),
+            "col": self.col,
+        }
+        if self.modules is not None:
+            out["modules"] = self.modules.state_dict()
+            out["modules_extra"] = self.modules.extra_state()
+        return out
+
+    def load_state(self, data: dict[str, Any]) -> None:
+        """Restore :meth:`state` output into this (freshly built) agent."""
+        for a in data["net_config"]["actions"]:
+            self.net.add_column(int(a))
+        self.net.load_state_dict(data["net"])
+        self.net.freeze_all()
+        self.col = int(data["col"])
+        if self.modules is not None:
+            self.modules.load_state_dict(data["modules"])
+            self.modules.load_extra_state(data["modules_extra"])

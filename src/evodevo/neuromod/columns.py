@@ -1,0 +1,346 @@
+"""Progressive columns with plain (PNN) or neuromodulated gated (BIARM) laterals (SPEC §1.2).
+
+Column i: ``h1 = relu(W1 phi(x))``, ``h2 = relu(W2 h1 + lat2)``, ``q = Wq h2 + latq``, where
+``lat2`` reads the earlier columns' ``h1`` and ``latq`` their ``h2`` (Rusu et al. 2016, layer
+l-1 into layer l; SPEC §1.2). Lateral terms of earlier columns k < i:
+
+* PNN: ``sum_k U_k h_k`` -- ONE matrix product of the concatenated ``[h_1 ... h_{i-1}]``.
+* BIARM (Eq. 3.8, 3.9): ``sum_k U_k (alpha_k * V_k h_k)`` with
+  ``alpha_k = sigmoid(W_alpha,k h_k) * sigmoid(sum_m w_m s_m)``. ``V_k`` and ``W_alpha,k``
+  (d -> r each, r = ``adapter_dim``) are stored as one stacked tensor, so all earlier columns'
+  adapters are one batched product (``einsum`` over k), and all ``U_k`` one matrix product of
+  the concatenated gated adapters. The context gate is a scalar per sample, so it scales the
+  summed lateral.
+
+Frozen columns (SPEC §1.2) have ``requires_grad=False`` and are never given to an optimiser;
+their first layers are fused into one cached matrix, and only their hidden activations are
+computed during training (their heads are not needed by later columns).
+
+>>> import torch
+>>> net = ProgressiveNet(obs_dim=4, hidden=8, gated=True, adapter_dim=2, seed=0)
+>>> _ = net.add_column(2); _ = net.add_column(3)
+>>> net.q(torch.zeros(5, 4), 1, torch.full((4,), 0.5)).shape
+torch.Size([5, 3])
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Sequence
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from evodevo.seeding import torch_gen
+
+__all__ = ["Column", "ProgressiveNet"]
+
+
+def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:
+    """Xavier-uniform tensor of ``shape`` with explicit (fan_in, fan_out)."""
+    bound = (6.0 / (fan[0] + fan[1])) ** 0.5
+    t = torch.empty(shape).uniform_(-bound, bound, generator=gen)
+    return nn.Parameter(t)
+
+
+class Column(nn.Module):
+    """One task column with its lateral adapters from ``n_prev`` earlier columns.
+
+    Args:
+        n_prev: number of earlier columns k (0 for the first task).
+        obs_dim: ``d_max``.
+        hidden: width of both hidden layers.
+        n_actions: Q-head outputs.
+        gated: BIARM laterals (else PNN laterals).
+        adapter_dim: r of V and W_alpha.
+        context_weights: initial w_m of Eq. 3.8, in the modules' internal layout.
+        learn_context: train w_m with the column.
+        gen: generator for the Xavier initialisation.
+    """
+
+    def __init__(
+        self,
+        n_prev: int,
+        obs_dim: int,
+        hidden: int,
+        n_actions: int,
+        gated: bool,
+        adapter_dim: int,
+        context_weights: Sequence[float],
+        learn_context: bool,
+        gen: torch.Generator,
+    ) -> None:
+        super().__init__()
+        self.n_prev = k = n_prev
+        self.hidden = h = hidden
+        self.n_actions = a = n_actions
+        self.gated = gated
+        self.r = r = adapter_dim
+        self.w1 = _xavier((obs_dim, h), (obs_dim, h), gen)
+        self.b1 = nn.Parameter(torch.zeros(h))
+        self.w2 = _xavier((h, h), (h, h), gen)
+        self.b2 = nn.Parameter(torch.zeros(h))
+        self.wq = _xavier((h, a), (h, a), gen)
+        self.bq = nn.Parameter(torch.zeros(a))
+        if k > 0:
+            if gated:
+                # [V | W_alpha] per earlier column, for the lateral into layer 2 (reads h1)
+                # and into the head (reads h2).
+                self.ad2_w = nn.Parameter(
+                    torch.cat([_xavier((k, h, r), (h, r), gen), _xavier((k, h, r), (h, r), gen)], 2)
+                )
+                self.ad2_b = nn.Parameter(torch.zeros(k, 2 * r))
+                self.adq_w = nn.Parameter(
+                    torch.cat([_xavier((k, h, r), (h, r), gen), _xavier((k, h, r), (h, r), gen)], 2)
+                )
+                self.adq_b = nn.Parameter(torch.zeros(k, 2 * r))
+                self.u2 = _xavier((k * r, h), (k * r, h), gen)
+                self.uq = _xavier((k * r, a), (k * r, a), gen)
+                self.ctx_w = nn.Parameter(
+                    torch.tensor(list(context_weights), dtype=torch.float32),
+                    requires_grad=learn_context,
+                )
+            else:
+                self.u2 = _xavier((k * h, h), (k * h, h), gen)
+                self.uq = _xavier((k * h, a), (k * h, a), gen)
+
+    # ---------------------------------------------------------------- laterals
+    def _gated(
+        self,
+        prev: torch.Tensor,
+        w: torch.Tensor,
+        b: torch.Tensor,
+        u: torch.Tensor,
+        ctx: torch.Tensor,
+    ) -> torch.Tensor:
+        """``ctx * sum_k U_k (sigmoid(W_alpha,k h_k) * V_k h_k)`` for all k in one product."""
+        bsz = prev.shape[0]
+        k, r = self.n_prev, self.r
+        if k == 1:
+            o = torch.addmm(b, prev, w[0])
+            z = o[:, :r] * torch.sigmoid(o[:, r:])
+            return torch.mm(z, u) * ctx
+        xt = prev.unflatten(1, (k, self.hidden)).transpose(0, 1)  # (k, B, hidden), a view
+        o = torch.baddbmm(b.unsqueeze(1), xt, w)  # (k, B, 2r): all V_k h_k and W_alpha,k h_k
+        z = o[..., :r] * torch.sigmoid(o[..., r:])
+        return torch.mm(z.transpose(0, 1).reshape(bsz, k * r), u) * ctx
+
+    def lateral2(self, h1_prev: torch.Tensor, ctx: torch.Tensor | None) -> torch.Tensor:
+        """Lateral into layer 2 from the concatenated earlier ``h1`` (B, k*hidden)."""
+        if self.gated:
+            assert ctx is not None
+            return self._gated(h1_prev, self.ad2_w, self.ad2_b, self.u2, ctx)
+        return torch.mm(h1_prev, self.u2)
+
+    def lateral_q(self, h2_prev: torch.Tensor, ctx: torch.Tensor | None) -> torch.Tensor:
+        """Lateral into the Q-head from the concatenated earlier ``h2`` (B, k*hidden)."""
+        if self.gated:
+            assert ctx is not None
+            return self._gated(h2_prev, self.adq_w, self.adq_b, self.uq, ctx)
+        return torch.mm(h2_prev, self.uq)
+
+    def context(self, states: torch.Tensor) -> torch.Tensor:
+        """Context gate ``sigmoid(sum_m w_m s_m)``; states (4,) -> scalar, (B, 4) -> (B, 1)."""
+        if states.dim() == 1:
+            return torch.sigmoid(torch.dot(states, self.ctx_w))
+        return torch.sigmoid(states @ self.ctx_w).unsqueeze(1)
+
+    # ---------------------------------------------------------------- forward
+    def hidden2(
+        self, h1: torch.Tensor, h1_prev: torch.Tensor | None, ctx: torch.Tensor | None
+    ) -> torch.Tensor:
+        """``h2`` given this column's ``h1`` and the earlier columns' ``h1``."""
+        pre = torch.addmm(self.b2, h1, self.w2)
+        if self.n_prev:
+            assert h1_prev is not None
+            pre = pre + self.lateral2(h1_prev, ctx)
+        return torch.relu(pre)
+
+    def forward(
+        self,
+        x: torch.Tensor,
+        h1_prev: torch.Tensor | None = None,
+        h2_prev: torch.Tensor | None = None,
+        ctx: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        """Q-values (B, n_actions) of this column."""
+        h1 = torch.relu(torch.addmm(self.b1, x, self.w1))
+        h2 = self.hidden2(h1, h1_prev, ctx)
+        q = torch.addmm(self.bq, h2, self.wq)
+        if self.n_prev:
+            assert h2_prev is not None
+            q = q + self.lateral_q(h2_prev, ctx)
+        return q
+
+
+class ProgressiveNet(nn.Module):
+    """The column stack: frozen columns 0..i-1 and the trainable column i.
+
+    Args:
+        obs_dim: ``d_max``.
+        hidden: column width.
+        gated: BIARM (True) or PNN (False) laterals.
+        adapter_dim: r.
+        seed: run seed; column i is initialised from ``derive(seed, 3, i)``.
+        context_weights: initial Eq. 3.8 weights in the modules' internal layout.
+        learn_context: train the Eq. 3.8 weights.
+    """
+
+    def __init__(
+        self,
+        obs_dim: int,
+        hidden: int,
+        gated: bool,
+        adapter_dim: int,
+        seed: int,
+        context_weights: Sequence[float] = (0.3, 0.3, 0.2, 0.2),
+        learn_context: bool = True,
+    ) -> None:
+        super().__init__()
+        self.obs_dim = obs_dim
+        self.hidden = hidden
+        self.gated = gated
+        self.adapter_dim = adapter_dim
+        self.seed = seed
+        self.context_weights = list(context_weights)
+        self.learn_context = learn_context
+        self.columns = nn.ModuleList()
+        self._w1_frozen = torch.empty(obs_dim, 0)
+        self._b1_frozen = torch.empty(0)
+        self._ctxw_frozen = torch.empty(0, 4)
+
+    @property
+    def n_columns(self) -> int:
+        return len(self.columns)
+
+    @property
+    def current(self) -> Column:
+        return self.columns[-1]  # type: ignore[return-value]
+
+    def add_column(self, n_actions: int) -> Column:
+        """Freeze every existing column and append a new trainable one."""
+        for col in self.columns:
+            for p in col.parameters():
+                p.requires_grad_(False)
+        self._refresh_frozen()
+        col = Column(
+            n_prev=self.n_columns,
+            obs_dim=self.obs_dim,
+            hidden=self.hidden,
+            n_actions=n_actions,
+            gated=self.gated,
+            adapter_dim=self.adapter_dim,
+            context_weights=self.context_weights,
+            learn_context=self.learn_context,
+            gen=torch_gen(self.seed, 3, self.n_columns),
+        )
+        self.columns.append(col)
+        return col
+
+    def _refresh_frozen(self) -> None:
+        """Cache the fused first layers and context weights of the frozen columns."""
+        cols = list(self.columns)
+        if not cols:
+            return
+        self._w1_frozen = torch.cat([c.w1.detach() for c in cols], 1)  # type: ignore[union-attr]
+        self._b1_frozen = torch.cat([c.b1.detach() for c in cols])  # type: ignore[union-attr]
+        if self.gated:
+            rows = [
+                c.ctx_w.detach() if c.n_prev else torch.zeros(4)  # type: ignore[union-attr]
+                for c in cols
+            ]
+            self._ctxw_frozen = torch.stack(rows)
+
+    def frozen_context(self, states: torch.Tensor, upto: int) -> torch.Tensor | None:
+        """Context gates (upto,) of columns 0..upto-1 from the scalar states (BIARM only)."""
+        if not self.gated or upto == 0:
+            return None
+        return torch.sigmoid(self._ctxw_frozen[:upto] @ states)
+
+    def features(
+        self, x: torch.Tensor, upto: int, states: torch.Tensor | None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Concatenated hidden activations ``(h1, h2)``, each (B, upto*hidden), of columns < upto.
+
+        Only frozen columns may be asked for (``upto <= n_columns - 1``); no autograd graph.
+        """
+        h = self.hidden
+        with torch.no_grad():
+            h1 = torch.relu(
+                torch.addmm(self._b1_frozen[: upto * h], x, self._w1_frozen[:, : upto * h])
+            )
+            ctx = self.frozen_context(states, upto) if self.gated else None
+            h2s = []
+            for j in range(upto):
+                col: Column = self.columns[j]  # type: ignore[assignment]
+                prev = h1[:, : j * h] if j else None
+                c = ctx[j] if ctx is not None else None
+                h2s.append(col.hidden2(h1[:, j * h : (j + 1) * h], prev, c))
+            h2 = h2s[0] if upto == 1 else torch.cat(h2s, 1)
+        return h1, h2
+
+    def q(
+        self,
+        x: torch.Tensor,
+        col: int,
+        states: torch.Tensor | None,
+        ctx: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        """Q-values of column ``col`` (B, n_actions) for padded observations ``x``.
+
+        ``states`` are the four scalar states (internal layout) for the context gates;
+        ``ctx`` overrides column ``col``'s own gate (learned mode: per-sample gate).
+        """
+        column: Column = self.columns[col]  # type: ignore[assignment]
+        if col == 0:
+            return column(x)
+        h1p, h2p = self.features(x, col, states)
+        if self.gated and ctx is None:
+            assert states is not None
+            ctx = column.context(states)
+        return column(x, h1p, h2p, ctx)
+
+    def make_target(self) -> Column:
+        """A frozen copy of the current column (the DQN target network)."""
+        target = copy.deepcopy(self.current)
+        for p in target.parameters():
+            p.requires_grad_(False)
+        return target
+
+    def config_dict(self) -> dict[str, object]:
+        """Constructor arguments plus each column's action count (for :meth:`from_config`)."""
+        return {
+            "obs_dim": self.obs_dim,
+            "hidden": self.hidden,
+            "gated": self.gated,
+            "adapter_dim": self.adapter_dim,
+            "seed": self.seed,
+            "context_weights": self.context_weights,
+            "learn_context": self.learn_context,
+            "actions": [c.n_actions for c in self.columns],  # type: ignore[union-attr]
+        }
+
+    @classmethod
+    def from_config(cls, cfg: dict[str, object]) -> ProgressiveNet:
+        """Rebuild an empty stack with the same columns (load a state dict into it)."""
+        kw = dict(cfg)
+        actions = kw.pop("actions")
+        net = cls(**kw)  # type: ignore[arg-type]
+        for a in actions:  # type: ignore[attr-defined]
+            net.add_column(int(a))
+        return net
+
+    def freeze_all(self) -> None:
+        """Freeze every column (after the last task) and refresh the fused caches."""
+        for p in self.columns.parameters():
+            p.requires_grad_(False)
+        self._refresh_frozen()
+
+
+def huber(pred: torch.Tensor, target: torch.Tensor, delta: float) -> torch.Tensor:
+    """Mean Huber loss (SPEC §1.6)."""
+    return F.huber_loss(pred, target, delta=delta)
+
+
+__all__ += ["huber"]

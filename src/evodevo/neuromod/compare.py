@@ -1,0 +1,292 @@
+"""The comparison grid and Tables 3.2-3.5 (SPEC §1.7, §6).
+
+:func:`run_grid` trains every (variant, seed) pair in ``DIR/runs/{variant}__s{seed}/`` over a
+:class:`~evodevo.parallel.WorkerPool` (finished runs are skipped and interrupted ones resumed,
+so the grid itself is resumable). :func:`write_report` reads the saved run files only and
+writes the tables as Markdown and CSV next to the figures, with the thesis' numbers beside ours.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evodevo.config import from_dict
+from evodevo.errors import EvodevoError
+from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.evaluation import improvement, retention
+from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4, TABLE_3_5
+from evodevo.parallel import WorkerPool
+from evodevo.runs import RunDir, atomic_write_text, read_json
+from evodevo.stats import summarise
+
+__all__ = ["run_grid", "run_dir_name", "collect", "write_report", "ABLATIONS"]
+
+ABLATIONS = ("no-da", "no-5ht", "no-ne", "no-ach")
+
+
+def run_dir_name(variant: str, seed: int) -> str:
+    """``{variant}__s{seed}``."""
+    return f"{variant}__s{seed}"
+
+
+def _run_item(item: tuple[str, int, dict[str, Any], str]) -> str:
+    """Worker body: train one (variant, seed) into its folder, resuming if interrupted."""
+    from evodevo.neuromod.checkpoint import latest_checkpoint
+    from evodevo.neuromod.trainer import train
+
+    variant, seed, cfg_dict, out = item
+    cfg = from_dict(BiarmConfig, cfg_dict)
+    resume = latest_checkpoint(Path(out) / "checkpoints") is not None
+    train(cfg, variant, seed, out, resume=resume)
+    return out
+
+
+def run_grid(
+    cfg: BiarmConfig,
+    variants: Sequence[str],
+    seeds: Sequence[int],
+    out: str | Path,
+    workers: int = 1,
+) -> list[str]:
+    """Train the missing runs of the grid; returns the run folders that were (re)run."""
+    from evodevo.config import to_dict
+    from evodevo.neuromod.tasks import resolve_tasks
+    from evodevo.neuromod.variants import get_variant
+
+    for v in variants:
+        get_variant(v)
+    resolve_tasks(cfg)  # every input error before any worker starts
+    root = Path(out)
+    (root / "runs").mkdir(parents=True, exist_ok=True)
+    cfg_dict = to_dict(cfg)
+    items = []
+    for v in variants:
+        for s in seeds:
+            folder = root / "runs" / run_dir_name(v, s)
+            if (folder / "summary.json").is_file():
+                continue
+            items.append((v, int(s), cfg_dict, str(folder)))
+    if not items:
+        return []
+    with WorkerPool(min(workers, len(items))) as pool:
+        return pool.map(_run_item, items)
+
+
+def collect(out: str | Path) -> dict[str, dict[int, dict[str, Any]]]:
+    """``{variant: {seed: summary}}`` of every finished run under ``DIR/runs``."""
+    root = Path(out) / "runs"
+    if not root.is_dir():
+        raise EvodevoError(f"{str(root)!r} does not exist; run `evodevo biarm compare` first")
+    found: dict[str, dict[int, dict[str, Any]]] = {}
+    for folder in sorted(root.iterdir()):
+        p = folder / "summary.json"
+        if p.is_file():
+            s = read_json(p)
+            found.setdefault(s["variant"], {})[int(s["seed"])] = s
+    if not found:
+        raise EvodevoError(f"no finished run under {str(root)!r}; nothing to report")
+    return found
+
+
+# ---------------------------------------------------------------------------- helpers
+def _env_ids(runs: dict[str, dict[int, dict[str, Any]]]) -> list[str]:
+    first = next(iter(next(iter(runs.values())).values()))
+    return [t["env_id"] for t in first["tasks"]]
+
+
+def _values(runs: dict[int, dict[str, Any]], env: str, key: str) -> list[float]:
+    out = []
+    for s in sorted(runs):
+        for t in runs[s]["tasks"]:
+            if t["env_id"] == env:
+                out.append(float(t[key]))
+    return out
+
+
+def _pm(mean: float, std: float, digits: int = 2) -> str:
+    return f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _csv(header: list[str], rows: list[list[Any]]) -> str:
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(header)
+    w.writerows(rows)
+    return buf.getvalue()
+
+
+def _budget(out: Path, runs: dict[str, dict[int, dict[str, Any]]]) -> str:
+    """One paragraph naming budget, seeds, evaluation and machine (SPEC §6)."""
+    variant = next(iter(runs))
+    seed = next(iter(runs[variant]))
+    folder = out / "runs" / run_dir_name(variant, seed)
+    saved = RunDir(folder, create=False).read_config()
+    cfg = saved["config"]
+    machine = saved.get("machine", {})
+    s = runs[variant][seed]
+    eps = ", ".join(f"{t['env_id']} {t['episodes']}" for t in s["tasks"])
+    seeds = {v: sorted(r) for v, r in runs.items()}
+    return (
+        f"Budget: episodes per task {eps} (episodes_scale {cfg.get('episodes_scale')}); "
+        f"module learning `{s.get('module_learning')}`, adapter_dim {s.get('adapter_dim')}; "
+        f"{len(s['eval_seeds'])} greedy evaluation episodes with seeds "
+        f"{s['eval_seeds'][0]}..{s['eval_seeds'][-1]}; seeds per variant {seeds}. "
+        f"Machine: {machine.get('processor')}, {machine.get('cpus')} CPUs, "
+        f"{machine.get('platform')}. Intervals: 95 % bootstrap over seeds (10,000 resamples).\n"
+    )
+
+
+# ---------------------------------------------------------------------------- tables
+def table_3_2(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
+    """PNN vs BIARM final returns with improvement, thesis beside."""
+    header = [
+        "Environment",
+        "PNN (ours)",
+        "BIARM (ours)",
+        "Improvement (ours)",
+        "PNN (thesis)",
+        "BIARM (thesis)",
+        "Improvement (thesis)",
+    ]
+    rows = []
+    for env in _env_ids(runs):
+        p = summarise(_values(runs.get("pnn", {}), env, "final_return"))
+        b = summarise(_values(runs.get("biarm", {}), env, "final_return"))
+        th = TABLE_3_2.get(env)
+        rows.append(
+            [
+                env,
+                p.fmt(2) + f" (n={p.n})" if p.n else "—",
+                b.fmt(2) + f" (n={b.n})" if b.n else "—",
+                f"{improvement(b.mean, p.mean):+.2f} %" if p.n and b.n else "—",
+                _pm(*th["pnn"]) if th else "—",
+                _pm(*th["biarm"]) if th else "—",
+                f"{improvement(th['biarm'][0], th['pnn'][0]):+.2f} %" if th else "—",
+            ]
+        )
+    return header, rows
+
+
+def table_3_3(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
+    """Median time per training step (µs), mean over seeds, and the ratio to PNN."""
+    variants = [v for v in ("pnn", "biarm", *ABLATIONS) if v in runs]
+    header = ["Environment", *[f"{v} µs/step" for v in variants]]
+    if "pnn" in runs:
+        header += [f"{v}/pnn" for v in variants if v != "pnn"]
+    header += ["thesis PNN / BIARM ms", "thesis overhead"]
+    rows = []
+    for env in _env_ids(runs):
+        means = {v: float(np.nanmean(_values(runs[v], env, "us_per_step"))) for v in variants}
+        row = [env, *[f"{means[v]:.0f}" for v in variants]]
+        if "pnn" in runs:
+            row += [f"{means[v] / means['pnn']:.3f}" for v in variants if v != "pnn"]
+        th = TABLE_3_3_MS.get(env)
+        row += (
+            [f"{th[0]:.2f} / {th[1]:.2f}", f"+{100 * (th[1] / th[0] - 1):.0f} %"]
+            if th
+            else ["—", "—"]
+        )
+        rows.append(row)
+    return header, rows
+
+
+def table_3_4(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
+    """Full BIARM vs the four ablations (final return), thesis beside."""
+    variants = [v for v in ("biarm", *ABLATIONS) if v in runs]
+    header = [
+        "Environment",
+        *[f"{v} (ours)" for v in variants],
+        *[f"{v} (thesis)" for v in variants],
+    ]
+    rows = []
+    for env in _env_ids(runs):
+        ours = []
+        for v in variants:
+            s = summarise(_values(runs[v], env, "final_return"))
+            ours.append(_pm(s.mean, s.std) + f" (n={s.n})")
+        th = TABLE_3_4.get(env, {})
+        rows.append([env, *ours, *[_pm(*th[v]) if v in th else "—" for v in variants]])
+    return header, rows
+
+
+def table_3_5(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
+    """Initial vs final returns and retention (of the means), thesis beside."""
+    header = [
+        "Environment",
+        "Model",
+        "Initial (ours)",
+        "Final (ours)",
+        "Retention (ours)",
+        "Initial (thesis)",
+        "Final (thesis)",
+        "Retention (thesis)",
+    ]
+    rows = []
+    variants = [v for v in ("biarm", "pnn", *ABLATIONS) if v in runs]
+    for env in _env_ids(runs):
+        for v in variants:
+            ini = summarise(_values(runs[v], env, "initial_return"))
+            fin = summarise(_values(runs[v], env, "final_return"))
+            ret = retention(ini.mean, fin.mean)
+            th = TABLE_3_5.get(env, {}).get(v)
+            rows.append(
+                [
+                    env,
+                    v,
+                    _pm(ini.mean, ini.std),
+                    _pm(fin.mean, fin.std),
+                    "undefined" if math.isnan(ret) else f"{100 * ret:.2f} %",
+                    _pm(*th[0]) if th else "—",
+                    _pm(*th[1]) if th else "—",
+                    f"{100 * th[2]:.2f} %" if th else "—",
+                ]
+            )
+    return header, rows
+
+
+TABLES = {
+    "table_3_2": ("Table 3.2 — final return, PNN vs BIARM", table_3_2),
+    "table_3_3": ("Table 3.3 — time per training step", table_3_3),
+    "table_3_4": ("Table 3.4 — ablations (final return)", table_3_4),
+    "table_3_5": ("Table 3.5 — initial vs final return and retention", table_3_5),
+}
+
+
+def write_report(out: str | Path, figures: bool = True) -> Path:
+    """Write ``table_3_*.md/.csv``, ``report.md`` and (optionally) the figures into ``out``."""
+    root = Path(out)
+    runs = collect(root)
+    budget = _budget(root, runs)
+    parts = ["# BIARM comparison\n", budget]
+    for name, (title, fn) in TABLES.items():
+        if name == "table_3_2" and not ({"pnn", "biarm"} & set(runs)):
+            continue
+        if name == "table_3_4" and not (set(ABLATIONS) & set(runs)):
+            continue
+        header, rows = fn(runs)
+        md = f"## {title}\n\n{budget}\n" + _md_table(header, rows)
+        atomic_write_text(root / f"{name}.md", md)
+        atomic_write_text(root / f"{name}.csv", _csv(header, rows))
+        parts.append(f"## {title}\n\n" + _md_table(header, rows))
+    if figures:
+        from evodevo.neuromod.figures import draw_all
+
+        names = draw_all(root, runs)
+        parts.append("## Figures\n\n" + "\n".join(f"![{n}]({n})" for n in names) + "\n")
+    report = root / "report.md"
+    atomic_write_text(report, "\n".join(parts))
+    return report

@@ -1,0 +1,210 @@
+"""Typed configuration of a BIARM / PNN run (SPEC §1; thesis Table 3.1).
+
+Every constant of SPEC §1 is a field here with its thesis value as default; the YAML files
+``configs/biarm.yaml`` and ``configs/biarm_quick.yaml`` hold the same keys. Load with
+:func:`evodevo.config.load_config`, which rejects unknown keys and wrong types; bad values are
+rejected by the ``validate()`` methods below, naming the key.
+
+>>> cfg = BiarmConfig()
+>>> [t.env_id for t in cfg.tasks][:2]
+['CartPole-v1', 'Acrobot-v1']
+>>> cfg.dqn.lr
+0.001
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from evodevo.config import doc
+from evodevo.errors import ConfigError
+
+__all__ = [
+    "TaskConfig",
+    "DQNConfig",
+    "NetworkConfig",
+    "ModuleConfig",
+    "EvalConfig",
+    "BiarmConfig",
+    "THESIS_TASKS",
+    "MODULE_NAMES",
+]
+
+#: Neuromodulator order used everywhere (arrays, CSV columns, Eq. 3.7 weights).
+MODULE_NAMES: tuple[str, ...] = ("DA", "5HT", "NE", "ACh")
+
+
+@dataclass
+class TaskConfig:
+    """One task of the sequence (SPEC §1 table)."""
+
+    env_id: str = doc("CartPole-v1", "Gymnasium id (Box observation, Discrete actions)")
+    episodes: int = doc(400, "training episodes before --episodes-scale")
+    max_steps: int | None = doc(500, "episode step limit; null keeps the environment's own")
+
+    def validate(self) -> None:
+        if not self.env_id:
+            raise ConfigError("tasks[].env_id is empty; give a Gymnasium id such as CartPole-v1")
+        if self.episodes < 1:
+            raise ConfigError(f"tasks[].episodes={self.episodes} must be at least 1")
+        if self.max_steps is not None and self.max_steps < 1:
+            raise ConfigError(f"tasks[].max_steps={self.max_steps} must be at least 1 or null")
+
+
+#: SPEC §1 default sequence: (env id, episodes, max steps).
+THESIS_TASKS: tuple[tuple[str, int, int], ...] = (
+    ("CartPole-v1", 400, 500),
+    ("Acrobot-v1", 500, 500),
+    ("MountainCar-v0", 800, 200),
+    ("LunarLander-v3", 800, 1000),
+)
+
+
+def _default_tasks() -> list[TaskConfig]:
+    return [TaskConfig(e, n, m) for e, n, m in THESIS_TASKS]
+
+
+@dataclass
+class DQNConfig:
+    """DQN settings shared by every variant (SPEC §1.6, Table 3.1)."""
+
+    lr: float = doc(1e-3, "base learning rate eta_base of Adam (Eq. 3.7)")
+    batch_size: int = doc(64, "mini-batch size")
+    replay_size: int = doc(10_000, "replay capacity, fresh buffer per task")
+    learning_starts: int = doc(64, "transitions in the buffer before the first gradient step")
+    gamma: float = doc(0.99, "discount factor")
+    eps_start: float = doc(1.0, "epsilon at the start of each task")
+    eps_decay: float = doc(0.995, "epsilon multiplier after each episode")
+    eps_min: float = doc(0.01, "epsilon floor")
+    huber_delta: float = doc(1.0, "Huber loss threshold")
+    grad_clip: float = doc(10.0, "gradient-norm clip")
+    target_update: int = doc(500, "gradient steps between hard target-network updates")
+
+    def validate(self) -> None:
+        checks = [
+            ("dqn.lr", self.lr > 0),
+            ("dqn.batch_size", self.batch_size >= 1),
+            ("dqn.replay_size", self.replay_size >= self.batch_size),
+            ("dqn.learning_starts", self.learning_starts >= 1),
+            ("dqn.gamma", 0 <= self.gamma <= 1),
+            ("dqn.eps_start", 0 <= self.eps_start <= 1),
+            ("dqn.eps_decay", 0 < self.eps_decay <= 1),
+            ("dqn.eps_min", 0 <= self.eps_min <= 1),
+            ("dqn.huber_delta", self.huber_delta > 0),
+            ("dqn.grad_clip", self.grad_clip > 0),
+            ("dqn.target_update", self.target_update >= 1),
+        ]
+        for key, ok in checks:
+            if not ok:
+                value = getattr(self, key.split(".")[1])
+                raise ConfigError(f"{key}={value!r} is out of range; see `evodevo biarm config`")
+
+
+@dataclass
+class NetworkConfig:
+    """Progressive columns and lateral adapters (SPEC §1.2)."""
+
+    hidden: int = doc(128, "units of each of the two hidden layers of a column")
+    adapter_dim: int = doc(32, "BIARM adapter width r of V and W_alpha (lateral d -> r -> width)")
+    d_max: int | None = doc(
+        None, "input size of phi (Eq. 3.10); null = largest obs of the sequence"
+    )
+
+    def validate(self) -> None:
+        if self.hidden < 1:
+            raise ConfigError(f"network.hidden={self.hidden} must be at least 1")
+        if self.adapter_dim < 1:
+            raise ConfigError(f"network.adapter_dim={self.adapter_dim} must be at least 1")
+        if self.d_max is not None and self.d_max < 1:
+            raise ConfigError(f"network.d_max={self.d_max} must be at least 1 or null")
+
+
+@dataclass
+class ModuleConfig:
+    """The four neuromodulator modules (SPEC §1.3-1.4)."""
+
+    hidden: int = doc(64, "hidden ReLU units of each target network")
+    tau_da: float = doc(0.1, "EMA rate of dopamine (Eq. 3.1)")
+    tau_5ht: float = doc(0.5, "EMA rate of serotonin (Eq. 3.1)")
+    tau_ne: float = doc(0.05, "EMA rate of norepinephrine (Eq. 3.1)")
+    tau_ach: float = doc(0.3, "EMA rate of acetylcholine (Eq. 3.1)")
+    initial_state: float = doc(0.5, "state of every module at the start of training")
+    novelty_decay: float = doc(0.995, "n_task multiplier after every environment step (Eq. 3.5)")
+    lr_weights: list[float] = doc([0.3, 0.2, 0.3, 0.2], "Eq. 3.7 weights (DA, 5HT, NE, ACh)")
+    context_weights: list[float] = doc(
+        [0.3, 0.2, 0.3, 0.2], "initial w_m of the context gate of Eq. 3.8 (DA, 5HT, NE, ACh)"
+    )
+    learn_context_weights: bool = doc(True, "train the Eq. 3.8 w_m with the column")
+    learning: Literal["fixed", "learned"] = doc(
+        "fixed", "fixed: random target nets; learned: trained by TD loss via the gate"
+    )
+    ablated_value: float = doc(0.5, "state held by an ablated module, and fed downstream")
+    sample_interval: int = doc(100, "environment steps between rows of neuromod.csv")
+
+    @property
+    def taus(self) -> tuple[float, float, float, float]:
+        return (self.tau_da, self.tau_5ht, self.tau_ne, self.tau_ach)
+
+    def validate(self) -> None:
+        if self.hidden < 1:
+            raise ConfigError(f"modules.hidden={self.hidden} must be at least 1")
+        for name, tau in zip(("tau_da", "tau_5ht", "tau_ne", "tau_ach"), self.taus, strict=True):
+            if not 0 < tau <= 1:
+                raise ConfigError(f"modules.{name}={tau} must lie in (0, 1]")
+        for name in ("initial_state", "ablated_value"):
+            v = getattr(self, name)
+            if not 0 <= v <= 1:
+                raise ConfigError(f"modules.{name}={v} must lie in [0, 1]")
+        if not 0 < self.novelty_decay <= 1:
+            raise ConfigError(f"modules.novelty_decay={self.novelty_decay} must lie in (0, 1]")
+        for name in ("lr_weights", "context_weights"):
+            v = getattr(self, name)
+            if len(v) != 4 or not all(math.isfinite(x) for x in v):
+                raise ConfigError(
+                    f"modules.{name}={v} must hold 4 finite numbers (DA, 5HT, NE, ACh)"
+                )
+        if self.sample_interval < 1:
+            raise ConfigError(f"modules.sample_interval={self.sample_interval} must be >= 1")
+
+
+@dataclass
+class EvalConfig:
+    """Greedy evaluation (SPEC §1.7)."""
+
+    episodes: int = doc(20, "greedy evaluation episodes per column")
+    seed: int = doc(10_000, "first evaluation seed; episode j uses seed + j (same for all runs)")
+
+    def validate(self) -> None:
+        if self.episodes < 1:
+            raise ConfigError(f"eval.episodes={self.episodes} must be at least 1")
+
+
+@dataclass
+class BiarmConfig:
+    """Everything a BIARM/PNN run needs (SPEC §1). The variant is chosen separately."""
+
+    tasks: list[TaskConfig] = field(
+        default_factory=_default_tasks, metadata={"doc": "task sequence, in order"}
+    )
+    episodes_scale: float = doc(1.0, "multiplies every task's episodes (rounded, min 1)")
+    default_episodes: int = doc(500, "episodes for a --tasks id not in the thesis table")
+    dqn: DQNConfig = field(default_factory=DQNConfig, metadata={"doc": "DQN section"})
+    network: NetworkConfig = field(default_factory=NetworkConfig, metadata={"doc": "columns"})
+    modules: ModuleConfig = field(default_factory=ModuleConfig, metadata={"doc": "modules"})
+    eval: EvalConfig = field(default_factory=EvalConfig, metadata={"doc": "evaluation"})
+
+    def validate(self) -> None:
+        if not self.tasks:
+            raise ConfigError("tasks is empty; give at least one Gymnasium id")
+        if not (self.episodes_scale > 0 and math.isfinite(self.episodes_scale)):
+            raise ConfigError(
+                f"episodes_scale={self.episodes_scale} must be a positive number (e.g. 0.25)"
+            )
+        if self.default_episodes < 1:
+            raise ConfigError(f"default_episodes={self.default_episodes} must be at least 1")
+
+    def scaled_episodes(self, task: TaskConfig) -> int:
+        """Episodes of ``task`` after ``episodes_scale`` (round, at least 1)."""
+        return max(1, int(round(task.episodes * self.episodes_scale)))
