@@ -103,6 +103,9 @@ def evaluate(
     noise: float = typer.Option(0.0, help="Visual-feature noise std (0.03 = robustness test)."),
     seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
     workers: int = typer.Option(1, help="Worker processes."),
+    baselines: bool = typer.Option(
+        True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
 ) -> None:
     """Test the best genome on fixed seeds, beside the all-zero and random policies (SPEC §2.5)."""
@@ -110,7 +113,7 @@ def evaluate(
     from evodevo.parallel import set_single_thread
 
     set_single_thread()
-    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers)
+    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines)
     if as_json:
         typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
         return
