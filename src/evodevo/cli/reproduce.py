@@ -1,4 +1,4 @@
-"""``evodevo reproduce``: one command that reruns both methods and writes a report."""
+"""``evodevo reproduce``: one command that reruns both methods and writes a report (issue 7)."""
 
 from __future__ import annotations
 
@@ -6,14 +6,20 @@ from pathlib import Path
 
 import typer
 
+__all__ = ["reproduce"]
+
 
 def reproduce(
-    budget: str = typer.Option("quick", help="quick (minutes) or thesis (the full protocol)."),
-    out: Path = typer.Option(..., help="Run directory for the report and all sub-runs."),
-    seed: int = typer.Option(0, help="Base seed."),
-    workers: int = typer.Option(2, help="Worker processes."),
+    out: Path = typer.Option(..., "--out", help="Run directory for the report and all sub-runs."),
+    budget: str = typer.Option("quick", help="quick (about 10 minutes) or thesis (the full protocol)."),
+    config: Path | None = typer.Option(None, "--config", help="YAML budget replacing the preset."),
+    seed: int = typer.Option(0, help="Offset added to every seed of the budget."),
+    workers: int | None = typer.Option(None, help="Worker processes per step [budget's, 2]."),
+    report_only: bool = typer.Option(False, "--report-only", help="Only rewrite the report from saved runs."),
 ) -> None:
-    """Rerun BIARM and the GRN protocol at a budget and write DIR/report.md."""
+    """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
+    from evodevo.parallel import set_single_thread
     from evodevo.reproduce import run_reproduce
 
-    run_reproduce(budget=budget, out=out, seed=seed, workers=workers)
+    set_single_thread()
+    run_reproduce(budget=budget, out=out, seed=seed, workers=workers, config=config, report_only=report_only)

@@ -1,0 +1,5 @@
+"""``python -m evodevo`` runs the CLI."""
+
+from evodevo.cli import main
+
+main()

@@ -1,0 +1,108 @@
+"""Budgets of ``evodevo reproduce`` (issue 7): what is run, with how many seeds and episodes.
+
+``thesis`` is the full protocol of SPEC §1 and §2 (the thesis' own budgets, our seed counts);
+``quick`` is the same pipeline shrunk to finish within 15 minutes on 2 cores (``make run``).
+The YAML files ``configs/reproduce_quick.yaml`` and ``configs/reproduce_thesis.yaml`` hold the
+same values (a test keeps them equal); ``--config FILE`` loads any other budget.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from evodevo.config import doc, from_dict
+from evodevo.errors import ConfigError
+
+__all__ = ["BiarmBudget", "GrnBudget", "ReproduceConfig", "preset", "PRESETS"]
+
+BIARM_VARIANTS = ("biarm", "pnn", "no-da", "no-5ht", "no-ne", "no-ach")
+
+
+@dataclass
+class BiarmBudget:
+    """BIARM part: a ``biarm compare`` grid (SPEC §1)."""
+
+    enabled: bool = doc(True, "run the BIARM part")
+    variants: list[str] = doc(list(BIARM_VARIANTS), "variants of the grid (SPEC §1.5)")
+    seeds: str = doc("0-4", "seed range, e.g. 0-4")
+    episodes_scale: float = doc(1.0, "multiplier on every task's episode count (1 = thesis)")
+    tasks: list[str] = doc(
+        ["CartPole-v1", "Acrobot-v1", "MountainCar-v0", "LunarLander-v3"], "task sequence"
+    )
+    eval_episodes: int = doc(20, "greedy evaluation episodes per task (SPEC §1.7)")
+
+    def validate(self) -> None:
+        bad = [v for v in self.variants if v not in BIARM_VARIANTS]
+        if bad:
+            raise ConfigError(f"biarm.variants: unknown variant {bad[0]!r}; accepted: {', '.join(BIARM_VARIANTS)}")
+        if self.episodes_scale <= 0:
+            raise ConfigError(f"biarm.episodes_scale={self.episodes_scale} must be > 0")
+        if self.eval_episodes < 1:
+            raise ConfigError(f"biarm.eval_episodes={self.eval_episodes} must be >= 1")
+
+
+@dataclass
+class GrnBudget:
+    """GRN part: evolutions, tests, controls and ablations (SPEC §2.4-2.5)."""
+
+    enabled: bool = doc(True, "run the GRN part")
+    seeds: str = doc("0-2", "evolution seeds")
+    population: int = doc(12, "genomes per generation")
+    generations: int = doc(15, "maximum generations")
+    episodes: int = doc(10, "episodes per genome evaluation")
+    test_episodes: int = doc(200, "test-object episodes per evaluation (clean and noisy)")
+    train_episodes: int = doc(40, "training-object episodes (the thesis' split)")
+    ablation_episodes: int = doc(40, "test episodes per ablation")
+    controls: bool = doc(True, "also evolve the blind GRN and the best open-loop policy")
+    control_seeds: str = doc("0", "seeds of the blind and open-loop controls")
+    controllers: list[str] = doc(["plain"], "GRN controller kinds to evolve")
+
+    def validate(self) -> None:
+        for name in ("population", "generations", "episodes", "test_episodes", "train_episodes", "ablation_episodes"):
+            if getattr(self, name) < 1:
+                raise ConfigError(f"grn.{name}={getattr(self, name)} must be >= 1")
+
+
+@dataclass
+class ReproduceConfig:
+    """Everything ``evodevo reproduce`` runs."""
+
+    name: str = doc("thesis", "budget name shown in the report")
+    workers: int = doc(2, "worker processes for every step")
+    biarm: BiarmBudget = field(default_factory=BiarmBudget)
+    grn: GrnBudget = field(default_factory=GrnBudget)
+
+    def validate(self) -> None:
+        if self.workers < 1:
+            raise ConfigError(f"workers={self.workers} must be >= 1")
+
+
+QUICK = {
+    "name": "quick",
+    "biarm": {
+        "variants": ["biarm", "pnn"],
+        "seeds": "0",
+        "episodes_scale": 0.05,
+        "eval_episodes": 5,
+    },
+    "grn": {
+        "seeds": "0",
+        "population": 6,
+        "generations": 3,
+        "episodes": 4,
+        "test_episodes": 30,
+        "train_episodes": 10,
+        "ablation_episodes": 10,
+        "controls": True,
+        "control_seeds": "0",
+    },
+}
+
+PRESETS: dict[str, dict] = {"quick": QUICK, "thesis": {"name": "thesis"}}
+
+
+def preset(name: str) -> ReproduceConfig:
+    """The ``quick`` or ``thesis`` budget."""
+    if name not in PRESETS:
+        raise ConfigError(f"--budget {name!r} is not a budget; choose one of {', '.join(PRESETS)}")
+    return from_dict(ReproduceConfig, PRESETS[name])

@@ -1,0 +1,200 @@
+"""The resumable pipeline of ``evodevo reproduce`` (issue 7).
+
+Each step is one ``evodevo`` CLI call run as a subprocess (the CLI is the contract, so the
+pipeline does not depend on any package's internals). A step whose outputs exist is skipped, so
+a killed ``reproduce`` continues where it stopped; interrupted evolutions resume from their own
+checkpoints (``--resume``). Each step's output goes to the console and to ``OUT/logs/``.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from evodevo.cli.common import parse_seeds
+from evodevo.config import load_config, to_dict
+from evodevo.errors import EvodevoError
+from evodevo.reproduce.budget import PRESETS, ReproduceConfig
+from evodevo.runs import RunDir, atomic_write_text
+
+__all__ = ["Step", "plan", "run_reproduce", "run_step"]
+
+
+@dataclass
+class Step:
+    """One CLI call: ``argv`` after ``evodevo``; done when every path in ``outputs`` exists."""
+
+    name: str
+    argv: list[str]
+    outputs: list[Path]
+    capture_json: Path | None = None
+    resume_if: Path | None = None
+    extra: dict[str, str] = field(default_factory=dict)
+
+    def done(self) -> bool:
+        return all(p.exists() for p in self.outputs)
+
+
+def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list[str]]]:
+    """(label, controller, seed, extra evolve flags) of every GRN evolution."""
+    g = cfg.grn
+    runs = [(c, c, s, ["--controller", c]) for c in g.controllers for s in parse_seeds(g.seeds)]
+    if g.controls:
+        for s in parse_seeds(g.control_seeds):
+            runs.append(("blind", "plain", s, ["--blind"]))
+            runs.append(("openloop", "open_loop", s, ["--open-loop"]))
+    return runs
+
+
+def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
+    """Every step of the budget, in order."""
+    w = str(cfg.workers)
+    steps: list[Step] = []
+    if cfg.biarm.enabled:
+        b = cfg.biarm
+        bdir = out / "biarm"
+        steps.append(
+            Step(
+                "biarm-compare",
+                [
+                    "biarm", "compare",
+                    "--variants", ",".join(b.variants),
+                    "--seeds", b.seeds,
+                    "--episodes-scale", repr(b.episodes_scale),
+                    "--tasks", ",".join(b.tasks),
+                    "--set", f"eval.episodes={b.eval_episodes}",
+                    "--workers", w,
+                    "--out", str(bdir),
+                ],
+                [bdir / "table_3_2.md"],
+            )
+        )
+    if cfg.grn.enabled:
+        g = cfg.grn
+        for label, _controller, seed, flags in _grn_runs(cfg, out):
+            rdir = out / "grn" / f"{label}_s{seed}"
+            steps.append(
+                Step(
+                    f"grn-evolve-{label}-s{seed}",
+                    [
+                        "grn", "evolve",
+                        "--population", str(g.population),
+                        "--generations", str(g.generations),
+                        "--episodes", str(g.episodes),
+                        "--seed", str(seed),
+                        "--workers", w,
+                        *flags,
+                        "--out", str(rdir),
+                    ],
+                    [rdir / "summary.json"],
+                    resume_if=rdir / "config.json",
+                )
+            )
+            # A noisy evaluation also runs the clean test and the trivial policies on the same
+            # seeds (evodevo.grn.evaluation), so a controller needs one test call, not two.
+            if label in g.controllers:
+                evals = [
+                    ("test_noisy", "test", 0.03, g.test_episodes),
+                    ("train_clean", "train", 0.0, g.train_episodes),
+                ]
+            else:
+                evals = [("test_clean", "test", 0.0, g.test_episodes)]
+            for tag, objects, noise, n in evals:
+                steps.append(
+                    Step(
+                        f"grn-evaluate-{label}-s{seed}-{tag}",
+                        [
+                            "grn", "evaluate", str(rdir),
+                            "--episodes", str(n),
+                            "--objects", objects,
+                            "--noise", repr(noise),
+                            "--workers", w,
+                            "--json",
+                        ],
+                        [rdir / f"repro_{tag}.json"],
+                        capture_json=rdir / f"repro_{tag}.json",
+                    )
+                )
+            if label in g.controllers:
+                steps.append(
+                    Step(
+                        f"grn-ablate-{label}-s{seed}",
+                        ["grn", "ablate", str(rdir), "--episodes", str(g.ablation_episodes), "--workers", w],
+                        [rdir / "ablations.csv"],
+                    )
+                )
+                steps.append(Step(f"grn-plot-{label}-s{seed}", ["grn", "plot", str(rdir)], [rdir / "figures"]))
+    return steps
+
+
+def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:
+    """Run one step as ``python -m evodevo ...``; raise EvodevoError if it fails."""
+    argv = list(step.argv)
+    if step.resume_if is not None and step.resume_if.exists():
+        argv.append("--resume")
+    cmd = [sys.executable, "-m", "evodevo", *argv]
+    log_dir.mkdir(parents=True, exist_ok=True)
+    log_path = log_dir / f"{step.name}.log"
+    last = ""
+    with log_path.open("w") as log:
+        log.write("$ evodevo " + " ".join(argv) + "\n")
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            log.write(line)
+            if echo:
+                sys.stdout.write("  " + line)
+                sys.stdout.flush()
+            if line.strip():
+                last = line.strip()
+        rc = proc.wait()
+    if rc != 0:
+        raise EvodevoError(f"step {step.name} failed (exit {rc}); see {log_path}")
+    if step.capture_json is not None:
+        try:
+            json.loads(last)
+        except json.JSONDecodeError:
+            raise EvodevoError(f"step {step.name} printed no JSON result; see {log_path}") from None
+        atomic_write_text(step.capture_json, last + "\n")
+
+
+def run_reproduce(
+    budget: str = "quick",
+    out: Path = Path("runs/quick"),
+    seed: int = 0,
+    workers: int | None = None,
+    config: Path | None = None,
+    report_only: bool = False,
+) -> Path:
+    """Run (or resume) every step of ``budget`` into ``out`` and write the report; return its path."""
+    from evodevo.reproduce.report import write_report
+
+    if budget not in PRESETS:
+        raise EvodevoError(f"--budget {budget!r} is not a budget; choose one of {', '.join(PRESETS)}")
+    # --config FILE replaces the preset; --workers overrides both.
+    cfg = load_config(ReproduceConfig, config, None) if config else load_config(ReproduceConfig, None, PRESETS[budget])
+    if workers is not None:
+        if workers < 1:
+            raise EvodevoError(f"--workers {workers} must be >= 1")
+        cfg.workers = workers
+    if seed:
+        cfg.grn.seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.grn.seeds))
+        cfg.grn.control_seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.grn.control_seeds))
+        cfg.biarm.seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.biarm.seeds))
+    run = RunDir(out)
+    run.write_config(to_dict(cfg), kind="reproduce")
+    steps = [] if report_only else plan(cfg, out)
+    t0 = time.perf_counter()
+    for i, step in enumerate(steps, 1):
+        if step.done():
+            print(f"[{i}/{len(steps)}] {step.name}: done already, skipped", flush=True)
+            continue
+        print(f"[{i}/{len(steps)}] {step.name} (elapsed {time.perf_counter() - t0:.0f} s)", flush=True)
+        run_step(step, out / "logs")
+    path = write_report(out, cfg, wall_s=time.perf_counter() - t0)
+    print(f"report: {path} (and {path.with_suffix('.html')}) after {time.perf_counter() - t0:.0f} s", flush=True)
+    return path
