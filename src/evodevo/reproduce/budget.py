@@ -34,7 +34,9 @@ class BiarmBudget:
     def validate(self) -> None:
         bad = [v for v in self.variants if v not in BIARM_VARIANTS]
         if bad:
-            raise ConfigError(f"biarm.variants: unknown variant {bad[0]!r}; accepted: {', '.join(BIARM_VARIANTS)}")
+            raise ConfigError(
+                f"biarm.variants: unknown variant {bad[0]!r}; accepted: {', '.join(BIARM_VARIANTS)}"
+            )
         if self.episodes_scale <= 0:
             raise ConfigError(f"biarm.episodes_scale={self.episodes_scale} must be > 0")
         if self.eval_episodes < 1:
@@ -58,7 +60,14 @@ class GrnBudget:
     controllers: list[str] = doc(["plain"], "GRN controller kinds to evolve")
 
     def validate(self) -> None:
-        for name in ("population", "generations", "episodes", "test_episodes", "train_episodes", "ablation_episodes"):
+        for name in (
+            "population",
+            "generations",
+            "episodes",
+            "test_episodes",
+            "train_episodes",
+            "ablation_episodes",
+        ):
             if getattr(self, name) < 1:
                 raise ConfigError(f"grn.{name}={getattr(self, name)} must be >= 1")
 

@@ -61,14 +61,22 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
             Step(
                 "biarm-compare",
                 [
-                    "biarm", "compare",
-                    "--variants", ",".join(b.variants),
-                    "--seeds", b.seeds,
-                    "--episodes-scale", repr(b.episodes_scale),
-                    "--tasks", ",".join(b.tasks),
-                    "--set", f"eval.episodes={b.eval_episodes}",
-                    "--workers", w,
-                    "--out", str(bdir),
+                    "biarm",
+                    "compare",
+                    "--variants",
+                    ",".join(b.variants),
+                    "--seeds",
+                    b.seeds,
+                    "--episodes-scale",
+                    repr(b.episodes_scale),
+                    "--tasks",
+                    ",".join(b.tasks),
+                    "--set",
+                    f"eval.episodes={b.eval_episodes}",
+                    "--workers",
+                    w,
+                    "--out",
+                    str(bdir),
                 ],
                 [bdir / "table_3_2.md"],
             )
@@ -81,14 +89,21 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                 Step(
                     f"grn-evolve-{label}-s{seed}",
                     [
-                        "grn", "evolve",
-                        "--population", str(g.population),
-                        "--generations", str(g.generations),
-                        "--episodes", str(g.episodes),
-                        "--seed", str(seed),
-                        "--workers", w,
+                        "grn",
+                        "evolve",
+                        "--population",
+                        str(g.population),
+                        "--generations",
+                        str(g.generations),
+                        "--episodes",
+                        str(g.episodes),
+                        "--seed",
+                        str(seed),
+                        "--workers",
+                        w,
                         *flags,
-                        "--out", str(rdir),
+                        "--out",
+                        str(rdir),
                     ],
                     [rdir / "summary.json"],
                     resume_if=rdir / "config.json",
@@ -108,11 +123,17 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                     Step(
                         f"grn-evaluate-{label}-s{seed}-{tag}",
                         [
-                            "grn", "evaluate", str(rdir),
-                            "--episodes", str(n),
-                            "--objects", objects,
-                            "--noise", repr(noise),
-                            "--workers", w,
+                            "grn",
+                            "evaluate",
+                            str(rdir),
+                            "--episodes",
+                            str(n),
+                            "--objects",
+                            objects,
+                            "--noise",
+                            repr(noise),
+                            "--workers",
+                            w,
                             "--json",
                         ],
                         [rdir / f"repro_{tag}.json"],
@@ -123,11 +144,23 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                 steps.append(
                     Step(
                         f"grn-ablate-{label}-s{seed}",
-                        ["grn", "ablate", str(rdir), "--episodes", str(g.ablation_episodes), "--workers", w],
+                        [
+                            "grn",
+                            "ablate",
+                            str(rdir),
+                            "--episodes",
+                            str(g.ablation_episodes),
+                            "--workers",
+                            w,
+                        ],
                         [rdir / "ablations.csv"],
                     )
                 )
-                steps.append(Step(f"grn-plot-{label}-s{seed}", ["grn", "plot", str(rdir)], [rdir / "figures"]))
+                steps.append(
+                    Step(
+                        f"grn-plot-{label}-s{seed}", ["grn", "plot", str(rdir)], [rdir / "figures"]
+                    )
+                )
     return steps
 
 
@@ -142,7 +175,9 @@ def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:
     last = ""
     with log_path.open("w") as log:
         log.write("$ evodevo " + " ".join(argv) + "\n")
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+        proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1
+        )
         assert proc.stdout is not None
         for line in proc.stdout:
             log.write(line)
@@ -174,9 +209,15 @@ def run_reproduce(
     from evodevo.reproduce.report import write_report
 
     if budget not in PRESETS:
-        raise EvodevoError(f"--budget {budget!r} is not a budget; choose one of {', '.join(PRESETS)}")
+        raise EvodevoError(
+            f"--budget {budget!r} is not a budget; choose one of {', '.join(PRESETS)}"
+        )
     # --config FILE replaces the preset; --workers overrides both.
-    cfg = load_config(ReproduceConfig, config, None) if config else load_config(ReproduceConfig, None, PRESETS[budget])
+    cfg = (
+        load_config(ReproduceConfig, config, None)
+        if config
+        else load_config(ReproduceConfig, None, PRESETS[budget])
+    )
     if workers is not None:
         if workers < 1:
             raise EvodevoError(f"--workers {workers} must be >= 1")
@@ -193,8 +234,13 @@ def run_reproduce(
         if step.done():
             print(f"[{i}/{len(steps)}] {step.name}: done already, skipped", flush=True)
             continue
-        print(f"[{i}/{len(steps)}] {step.name} (elapsed {time.perf_counter() - t0:.0f} s)", flush=True)
+        print(
+            f"[{i}/{len(steps)}] {step.name} (elapsed {time.perf_counter() - t0:.0f} s)", flush=True
+        )
         run_step(step, out / "logs")
     path = write_report(out, cfg, wall_s=time.perf_counter() - t0)
-    print(f"report: {path} (and {path.with_suffix('.html')}) after {time.perf_counter() - t0:.0f} s", flush=True)
+    print(
+        f"report: {path} (and {path.with_suffix('.html')}) after {time.perf_counter() - t0:.0f} s",
+        flush=True,
+    )
     return path

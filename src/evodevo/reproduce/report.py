@@ -24,7 +24,13 @@ __all__ = ["write_report", "grn_section", "biarm_section", "markdown_to_html", "
 
 #: Thesis Chapter 4 numbers (Table 4.2 and Section 4.6.2): test success on *training* objects
 #: over 40 episodes, the noisy success and the retention.
-THESIS_GRN = {"success": 0.575, "noisy": 0.528, "retention": 0.918, "episodes": 40, "train_min": 6.5}
+THESIS_GRN = {
+    "success": 0.575,
+    "noisy": 0.528,
+    "retention": 0.918,
+    "episodes": 40,
+    "train_min": 6.5,
+}
 
 
 def _load(path: Path) -> dict[str, Any] | None:
@@ -104,7 +110,9 @@ def _biarm_differences(bdir: Path, scale: float) -> list[str]:
 
         with csv_path.open() as fh:
             rows = list(csv.DictReader(fh))
-        pnn = [r for r in rows if r.get("model", r.get("variant", "")).lower() in ("pnn", "baseline")]
+        pnn = [
+            r for r in rows if r.get("model", r.get("variant", "")).lower() in ("pnn", "baseline")
+        ]
         if pnn:
             notes.append(
                 "- PNN retention: with frozen columns and fixed evaluation seeds it must be 100 % on "
@@ -172,7 +180,9 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
             if t is None:
                 continue
             p = fisher_exact(kc, nc, int(t["successes"]), int(t["episodes"]))
-            ctrl_rows.append(f"| {title}, seed {s} | {rate(int(t['successes']), int(t['episodes'])).fmt()} | {p:.3g} |")
+            ctrl_rows.append(
+                f"| {title}, seed {s} | {rate(int(t['successes']), int(t['episodes'])).fmt()} | {p:.3g} |"
+            )
             diffs.append((title, kc / nc - t["success_rate"], p))
     zero = tests[0]["baselines"].get("zero")
     if zero:
@@ -195,16 +205,27 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     ]
     for title, d, p in diffs:
         verdict = "significantly" if p < 0.05 else "not significantly"
-        lines.append(f"- GRN vs {title}: {100 * d:+.1f} points, {verdict} different (Fisher p = {p:.3g}).")
+        lines.append(
+            f"- GRN vs {title}: {100 * d:+.1f} points, {verdict} different (Fisher p = {p:.3g})."
+        )
     lines.append("")
     for c in g.controllers:
         s0 = parse_seeds(g.seeds)[0]
         ab = gdir / f"{c}_s{s0}" / "ablations.md"
         if ab.is_file():
-            lines += [f"### Ablations (thesis Section 4.7), {c} seed {s0}", "", ab.read_text().strip(), ""]
+            lines += [
+                f"### Ablations (thesis Section 4.7), {c} seed {s0}",
+                "",
+                ab.read_text().strip(),
+                "",
+            ]
         figs = sorted((gdir / f"{c}_s{s0}" / "figures").glob("*.png"))
         if figs:
-            lines += [f"### Figures, {c} seed {s0}", ""] + [f"![{f.stem}]({f.relative_to(out)})" for f in figs] + [""]
+            lines += (
+                [f"### Figures, {c} seed {s0}", ""]
+                + [f"![{f.stem}]({f.relative_to(out)})" for f in figs]
+                + [""]
+            )
     return lines
 
 
@@ -243,10 +264,12 @@ def _inline(text: str) -> str:
 
 def markdown_to_html(md: str, base: Path) -> str:
     """HTML for the Markdown subset the reports use (headings, tables, lists, images inline)."""
-    out = ['<!doctype html><meta charset="utf-8"><title>evodevo report</title>',
-           "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
-           "table{border-collapse:collapse}td,th{border:1px solid #999;padding:2px 6px}"
-           "img{max-width:100%}</style>"]
+    out = [
+        '<!doctype html><meta charset="utf-8"><title>evodevo report</title>',
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
+        "table{border-collapse:collapse}td,th{border:1px solid #999;padding:2px 6px}"
+        "img{max-width:100%}</style>",
+    ]
     table: list[list[str]] = []
     in_list = False
 
@@ -277,7 +300,9 @@ def markdown_to_html(md: str, base: Path) -> str:
             p = base / m.group(2)
             if p.is_file():
                 data = base64.b64encode(p.read_bytes()).decode()
-                out.append(f'<p><img alt="{html.escape(m.group(1))}" src="data:image/png;base64,{data}"></p>')
+                out.append(
+                    f'<p><img alt="{html.escape(m.group(1))}" src="data:image/png;base64,{data}"></p>'
+                )
             continue
         if s.startswith("#"):
             level = len(s) - len(s.lstrip("#"))
