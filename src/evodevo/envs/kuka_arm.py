@@ -1,6 +1,6 @@
 """The Kuka iiwa arm with a WSG50 gripper, driven by end-effector displacements (SPEC §2.6, §3).
 
-The logic (joint layout, rest pose, inverse-kinematics settings, motor gains, workspace clamps)
+The logic (joint layout, initial pose, inverse-kinematics settings, motor gains, workspace clamps)
 is copied from ``pybullet_envs/bullet/kuka.py`` of the ``pybullet`` 3.2.7 package
 (Copyright (c) Erwin Coumans and the Bullet contributors, zlib licence). Two changes, neither of
 which alters the physics:
@@ -82,10 +82,20 @@ _MAX_FORCE = 200.0
 _FINGER_A_FORCE = 2.0
 _FINGER_B_FORCE = 2.5
 _FINGER_TIP_FORCE = 2.0
-_LOWER_LIMITS = [-0.967, -2.0, -2.96, 0.19, -2.96, -2.09, -3.05]
-_UPPER_LIMITS = [0.967, 2.0, 2.96, 2.29, 2.96, 2.09, 3.05]
-_JOINT_RANGES = [5.8, 4.0, 5.8, 4.0, 5.8, 4.0, 6.0]
-_REST_POSES = [0.0, 0.0, 0.0, 0.5 * math.pi, 0.0, -math.pi * 0.5 * 0.66, 0.0]
+# Motor arguments of the arm joints 0..6 and of the hand joints (gripper rotation, fingers A and
+# B, finger tips), as in the original; 0.1 and 1.0 are setJointMotorControl2's default gains.
+_ARM_JOINTS = list(range(END_EFFECTOR_INDEX + 1))
+_ARM_ZEROS = [0.0] * len(_ARM_JOINTS)
+_ARM_FORCES = [_MAX_FORCE] * len(_ARM_JOINTS)
+_ARM_KP = [0.3] * len(_ARM_JOINTS)
+_ARM_KD = [1.0] * len(_ARM_JOINTS)
+_HAND_JOINTS = [GRIPPER_ROTATION_JOINT, FINGER_A_JOINT, FINGER_B_JOINT, *FINGER_TIP_JOINTS]
+_HAND_FORCES = [_MAX_FORCE, _FINGER_A_FORCE, _FINGER_B_FORCE, _FINGER_TIP_FORCE, _FINGER_TIP_FORCE]
+_HAND_KP = [0.1] * len(_HAND_JOINTS)
+_HAND_KD = [1.0] * len(_HAND_JOINTS)
+# The original sets ``useNullSpace = 21``, so its ``useNullSpace == 1`` test fails and the
+# inverse kinematics runs with joint damping only (its null-space limits are never used).
+_JOINT_DAMPING = [0.00001] * 14
 
 
 class KukaArm:
@@ -104,6 +114,7 @@ class KukaArm:
         self.num_joints = 0
         self.end_effector_target: list[float] = list(INITIAL_END_EFFECTOR_TARGET)
         self.end_effector_angle = 0.0
+        self._max_velocity_pending = True
         # The gripper orientation never changes: it points down.
         self._down = p.getQuaternionFromEuler([0.0, -math.pi, 0.0])
 
@@ -148,14 +159,17 @@ class KukaArm:
             )
         self.end_effector_target = list(INITIAL_END_EFFECTOR_TARGET)
         self.end_effector_angle = 0.0
+        self._max_velocity_pending = True
 
     def apply_action(self, dx: float, dy: float, dz: float, da: float, finger_angle: float) -> None:
         """Move the end-effector target by (dx, dy, dz), turn the gripper by da, set the fingers.
 
-        Same inverse kinematics (null space, fixed downward orientation) and motor gains as the
+        Same inverse kinematics (damped, fixed downward orientation) and motor gains as the
         original ``Kuka.applyAction``; x and y of the target are clamped to the workspace.
         """
         cid = self._cid
+        # The original reads the end-effector state here (unused); kept for identical numerics.
+        p.getLinkState(self.uid, END_EFFECTOR_INDEX, physicsClientId=cid)
         t = self.end_effector_target
         t[0] = min(max(t[0] + dx, WORKSPACE_X[0]), WORKSPACE_X[1])
         t[1] = min(max(t[1] + dy, WORKSPACE_Y[0]), WORKSPACE_Y[1])
@@ -166,39 +180,47 @@ class KukaArm:
             END_EFFECTOR_INDEX,
             t,
             self._down,
-            _LOWER_LIMITS,
-            _UPPER_LIMITS,
-            _JOINT_RANGES,
-            _REST_POSES,
+            jointDamping=_JOINT_DAMPING,
             physicsClientId=cid,
         )
-        for i in range(END_EFFECTOR_INDEX + 1):
-            p.setJointMotorControl2(
-                bodyUniqueId=self.uid,
-                jointIndex=i,
-                controlMode=p.POSITION_CONTROL,
-                targetPosition=joint_poses[i],
-                targetVelocity=0,
-                force=_MAX_FORCE,
-                maxVelocity=_MAX_VELOCITY,
-                positionGain=0.3,
-                velocityGain=1,
+        if self._max_velocity_pending:
+            # setJointMotorControlArray cannot set maxVelocity, but a motor keeps it once set.
+            for i in range(END_EFFECTOR_INDEX + 1):
+                p.setJointMotorControl2(
+                    bodyUniqueId=self.uid,
+                    jointIndex=i,
+                    controlMode=p.POSITION_CONTROL,
+                    targetPosition=joint_poses[i],
+                    targetVelocity=0,
+                    force=_MAX_FORCE,
+                    maxVelocity=_MAX_VELOCITY,
+                    positionGain=0.3,
+                    velocityGain=1,
+                    physicsClientId=cid,
+                )
+            self._max_velocity_pending = False
+        else:
+            p.setJointMotorControlArray(
+                self.uid,
+                _ARM_JOINTS,
+                p.POSITION_CONTROL,
+                targetPositions=joint_poses[: END_EFFECTOR_INDEX + 1],
+                targetVelocities=_ARM_ZEROS,
+                forces=_ARM_FORCES,
+                positionGains=_ARM_KP,
+                velocityGains=_ARM_KD,
                 physicsClientId=cid,
             )
-        self._set_motor(GRIPPER_ROTATION_JOINT, self.end_effector_angle, _MAX_FORCE)
-        self._set_motor(FINGER_A_JOINT, -finger_angle, _FINGER_A_FORCE)
-        self._set_motor(FINGER_B_JOINT, finger_angle, _FINGER_B_FORCE)
-        for j in FINGER_TIP_JOINTS:
-            self._set_motor(j, 0.0, _FINGER_TIP_FORCE)
-
-    def _set_motor(self, joint: int, target: float, force: float) -> None:
-        p.setJointMotorControl2(
+        a = self.end_effector_angle
+        p.setJointMotorControlArray(
             self.uid,
-            joint,
+            _HAND_JOINTS,
             p.POSITION_CONTROL,
-            targetPosition=target,
-            force=force,
-            physicsClientId=self._cid,
+            targetPositions=[a, -finger_angle, finger_angle, 0.0, 0.0],
+            forces=_HAND_FORCES,
+            positionGains=_HAND_KP,
+            velocityGains=_HAND_KD,
+            physicsClientId=cid,
         )
 
     def end_effector_position(self) -> Sequence[float]:

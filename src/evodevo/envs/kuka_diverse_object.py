@@ -145,6 +145,10 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         height: Observation height (pixels).
         is_discrete: Discrete actions (7 with the height hack, 9 without), as in the original.
         urdf_root: Folder of ``pybullet_data``; the installed one by default.
+        deterministic_pairs: Sort the broadphase's overlapping pairs, so that an episode does
+            not depend on earlier episodes of the same instance (a seed gives the same episode).
+            ``False`` is the original's setting: the first episode of an instance then matches
+            the original bit for bit, later ones depend on the instance's history.
 
     Raises:
         ConfigError: An option is out of range.
@@ -166,6 +170,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         height: int = 48,
         is_discrete: bool = False,
         urdf_root: str | None = None,
+        deterministic_pairs: bool = True,
     ) -> None:
         _check_int("num_objects", num_objects, 1)
         _check_int("max_steps", max_steps, 1)
@@ -209,7 +214,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         cid = self._cid
         p.setPhysicsEngineParameter(
             numSolverIterations=SOLVER_ITERATIONS,
-            deterministicOverlappingPairs=1,
+            deterministicOverlappingPairs=int(bool(deterministic_pairs)),
             physicsClientId=cid,
         )
         p.setTimeStep(TIME_STEP, physicsClientId=cid)
@@ -370,7 +375,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             return DV * ux, DV * uy, DV * uz, DA * ua
         shape = self.action_space.shape
         try:
-            a = np.asarray(action, dtype=np.float64)
+            a = np.asarray(action)
+            if a.dtype not in (np.float32, np.float64):
+                a = a.astype(np.float64)
         except (TypeError, ValueError) as exc:
             raise EvodevoError(
                 f"action must be numeric with shape {shape}, got {action!r}"
@@ -382,10 +389,13 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         if not np.all(np.isfinite(a)):
             raise EvodevoError(f"action must be finite, got {a.tolist()}")
+        # NumPy scalars in the action's own precision, as in the original (NumPy 2 keeps float32
+        # for ``0.06 * float32`` and for the arm's target after adding it), so that float32
+        # actions give the same numbers as there.
         a = np.clip(a, -1.0, 1.0)
         if self.height_hack:
-            return DV * float(a[0]), DV * float(a[1]), -DV, DA * float(a[2])
-        return DV * float(a[0]), DV * float(a[1]), DV * float(a[2]), DA * float(a[3])
+            return DV * a[0], DV * a[1], -DV, DA * a[2]
+        return DV * a[0], DV * a[1], DV * a[2], DA * a[3]
 
     def _grasp(self) -> None:
         """Close the fingers for 500 steps, then lift for 500 steps, as the original does."""
