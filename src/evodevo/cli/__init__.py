@@ -25,11 +25,12 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    from evodevo.cli import biarm, grn, reproduce
+    from evodevo.cli import biarm, grn, reference, reproduce
 
     app.add_typer(biarm.app, name="biarm")
     app.add_typer(grn.app, name="grn")
     app.command("reproduce")(reproduce.reproduce)
+    app.add_typer(reference.app, name="reference")
 
 
 _register()
