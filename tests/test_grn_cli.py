@@ -85,6 +85,14 @@ def test_evaluate_json_noise_ablate_plot_video(fake_run, tmp_path):
         "ablations.png",
     } <= names
     assert any(n.startswith("rolling_success_eval_train") for n in names)
+    base = tmp_path / "base" / "b.json"
+    cfg = fake_run.parent / "fake.yaml"
+    invoke("baselines", "--config", cfg, "--episodes", 6, "--objects", "train", "--out", base)
+    res = invoke("evaluate", fake_run, "--objects", "train", "--baselines-from", base, "--json")
+    reused = json.loads(res.output.strip().splitlines()[-1])
+    assert reused["baselines"] == r["baselines"]  # same episodes, same trivial-policy results
+    with pytest.raises(EvodevoError, match="was measured on"):
+        invoke("evaluate", fake_run, "--objects", "test", "--baselines-from", base)
     gif = tmp_path / "ep.gif"
     invoke("video", fake_run, "--out", gif)
     assert gif.stat().st_size > 0

@@ -106,6 +106,9 @@ def evaluate(
     baselines: bool = typer.Option(
         True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
     ),
+    baselines_from: Path | None = typer.Option(
+        None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
 ) -> None:
     """Test the best genome on fixed seeds, beside the all-zero and random policies (SPEC §2.5)."""
@@ -113,7 +116,7 @@ def evaluate(
     from evodevo.parallel import set_single_thread
 
     set_single_thread()
-    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines)
+    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines, baselines_from)
     if as_json:
         typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
         return
@@ -133,6 +136,27 @@ def _fmt_rate(name: str, r: dict[str, Any]) -> str:
         f"  {name:<16} {100 * r['success_rate']:5.1f} % "
         f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] ({r['successes']} successes)"
     )
+
+
+@app.command()
+def baselines(
+    out: Path = typer.Option(..., "--out", help="JSON file to write (+ _episodes.csv beside it)."),
+    config: Path | None = typer.Option(None, "--config", help="YAML config (env, test seed)."),
+    episodes: int | None = typer.Option(None, help="Test episodes [40]."),
+    objects: str = typer.Option("test", help="test or train objects."),
+    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+    workers: int = typer.Option(1, help="Worker processes."),
+) -> None:
+    """All-zero and uniform-random policies on the fixed test episodes (for --baselines-from)."""
+    from evodevo.config import load_config
+    from evodevo.grn.config import GrnConfig
+    from evodevo.grn.evaluation import evaluate_baselines
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    res = evaluate_baselines(load_config(GrnConfig, config), out, episodes, objects, seed, workers)
+    for name, b in res["baselines"].items():
+        typer.echo(_fmt_rate(name, b))
 
 
 @app.command()

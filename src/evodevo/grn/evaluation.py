@@ -106,6 +106,7 @@ def evaluate_run(
     seed: int | None = None,
     workers: int = 1,
     baselines: bool = True,
+    baselines_from: str | Path | None = None,
 ) -> dict[str, Any]:
     """Test a run's best genome (SPEC §2.5) and save the result files; returns the result dict.
 
@@ -117,6 +118,8 @@ def evaluate_run(
         seed: test seed (default ``evaluation.test_seed``).
         workers: worker processes.
         baselines: also run the all-zero and uniform-random policies on the same seeds.
+        baselines_from: a file of :func:`evaluate_baselines` for the same episodes, used
+            instead of running the trivial policies again.
     """
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
@@ -145,7 +148,9 @@ def evaluate_run(
             out["clean"] = rate_dict(clean.success[0])
             out["retention"] = float(main.success.mean()) / clean_rate if clean_rate > 0 else None
         base: dict[str, Any] = {}
-        if baselines:
+        if baselines_from is not None:
+            base = _read_baselines(baselines_from, cfg, n, objects, test_seed)
+        elif baselines:
             for name in BASELINES:
                 res = ev.evaluate([None], clean_eps, baseline=name)
                 rows += _rows(name, clean_eps, res)
@@ -171,3 +176,67 @@ def evaluate_run(
     write_json(loaded.run / f"{name}.json", result)
     loaded.run.write_csv(f"{name}_episodes.csv", rows)
     return result
+
+
+def _baseline_key(config: GrnConfig, n: int, objects: str, test_seed: int) -> dict[str, Any]:
+    return {
+        "env_id": config.env.id,
+        "env_kwargs": dict(config.env.kwargs),
+        "episodes": n,
+        "objects": objects,
+        "test_seed": test_seed,
+    }
+
+
+def evaluate_baselines(
+    config: GrnConfig,
+    out: str | Path,
+    episodes: int | None = None,
+    objects: str = "test",
+    seed: int | None = None,
+    workers: int = 1,
+) -> dict[str, Any]:
+    """Run the all-zero and uniform-random policies on the fixed test episodes; save to ``out``.
+
+    The trivial policies need no genome, so one file serves every run tested on the same
+    episodes (``evaluate --baselines-from``); the file records which episodes those were.
+    """
+    if objects not in ("test", "train"):
+        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    n = int(episodes if episodes is not None else config.evaluation.test_episodes)
+    test_seed = int(seed if seed is not None else config.evaluation.test_seed)
+    eps = test_episodes(test_seed, n, objects == "test")
+    base: dict[str, Any] = {}
+    rows: list[dict[str, Any]] = []
+    with Evaluator(config, None, workers=workers) as ev:
+        for name in BASELINES:
+            res = ev.evaluate([None], eps, baseline=name)
+            rows += _rows(name, eps, res)
+            base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+    result = {
+        "key": _baseline_key(config, n, objects, test_seed),
+        "baselines": base,
+        "machine": machine_info(),
+    }
+    out = Path(out)
+    write_json(out, result)
+    RunDir(out.parent).write_csv(f"{out.stem}_episodes.csv", rows)
+    return result
+
+
+def _read_baselines(
+    path: str | Path, config: GrnConfig, n: int, objects: str, test_seed: int
+) -> dict[str, Any]:
+    from evodevo.runs import read_json
+
+    data = read_json(path)
+    want = _baseline_key(config, n, objects, test_seed)
+    if data.get("key") != want:
+        raise EvodevoError(
+            f"--baselines-from {str(path)!r} was measured on {data.get('key')}, not on {want}; "
+            "use a file for the same episodes or let evaluate run the baselines"
+        )
+    return dict(data["baselines"])
+
+
+__all__ += ["evaluate_baselines"]
