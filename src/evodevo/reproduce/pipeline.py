@@ -83,6 +83,17 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
         )
     if cfg.grn.enabled:
         g = cfg.grn
+        # The trivial policies run once per object split; every evaluation reuses them
+        # (same test seeds, so the same episodes).
+        for objects, n in (("test", g.test_episodes), ("train", g.train_episodes)):
+            path = out / "grn" / f"baselines_{objects}.json"
+            steps.append(
+                Step(
+                    f"grn-baselines-{objects}",
+                    ["grn", "baselines", "--episodes", str(n), "--objects", objects, "--workers", w, "--out", str(path)],
+                    [path],
+                )
+            )
         for label, _controller, seed, flags in _grn_runs(cfg, out):
             rdir = out / "grn" / f"{label}_s{seed}"
             steps.append(
