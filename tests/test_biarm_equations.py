@@ -57,7 +57,7 @@ def _module_targets(mods: Neuromodulators, obs: np.ndarray, extra: dict[str, flo
     """Reference: each module's target from its own slice of the stacked weights."""
     from evodevo.neuromod.modules import LAYOUT
 
-    d, h = mods.obs_dim, mods.hidden
+    _d, h = mods.obs_dim, mods.hidden
     w1 = mods.w1.detach().numpy()
     out = {}
     for j, m in enumerate(LAYOUT):

@@ -85,16 +85,12 @@ class Column(nn.Module):
         self.bq = nn.Parameter(torch.zeros(a))
         if k > 0:
             if gated:
-                # [V | W_alpha] per earlier column, for the lateral into layer 2 (reads h1)
-                # and into the head (reads h2).
-                self.ad2_w = nn.Parameter(
-                    torch.cat([_xavier((k, h, r), (h, r), gen), _xavier((k, h, r), (h, r), gen)], 2)
-                )
-                self.ad2_b = nn.Parameter(torch.zeros(k, 2 * r))
-                self.adq_w = nn.Parameter(
-                    torch.cat([_xavier((k, h, r), (h, r), gen), _xavier((k, h, r), (h, r), gen)], 2)
-                )
-                self.adq_b = nn.Parameter(torch.zeros(k, 2 * r))
+                # [V | W_alpha] of every earlier column, stacked: blocks 0..k-1 read the earlier
+                # h1 (lateral into layer 2), blocks k..2k-1 the earlier h2 (into the head).
+                v = _xavier((2 * k, h, r), (h, r), gen)
+                wa = _xavier((2 * k, h, r), (h, r), gen)
+                self.ad_w = nn.Parameter(torch.cat([v.data, wa.data], 2))
+                self.ad_b = nn.Parameter(torch.zeros(2 * k, 1, 2 * r))
                 self.u2 = _xavier((k * r, h), (k * r, h), gen)
                 self.uq = _xavier((k * r, a), (k * r, a), gen)
                 self.ctx_w = nn.Parameter(
@@ -106,39 +102,33 @@ class Column(nn.Module):
                 self.uq = _xavier((k * h, a), (k * h, a), gen)
 
     # ---------------------------------------------------------------- laterals
-    def _gated(
-        self,
-        prev: torch.Tensor,
-        w: torch.Tensor,
-        b: torch.Tensor,
-        u: torch.Tensor,
-        ctx: torch.Tensor,
+    def _adapters(
+        self, prev: torch.Tensor, w: torch.Tensor, b: torch.Tensor, ctx: torch.Tensor
     ) -> torch.Tensor:
-        """``ctx * sum_k U_k (sigmoid(W_alpha,k h_k) * V_k h_k)`` for all k in one product."""
+        """``alpha * V h`` of all stacked blocks in one batched product, as (B, blocks*r).
+
+        ``prev`` holds the blocks' inputs side by side (B, blocks*hidden);
+        ``alpha = sigmoid(W_alpha h) * ctx`` (Eq. 3.8), ``ctx`` a scalar or (B, 1).
+        """
         bsz = prev.shape[0]
-        k, r = self.n_prev, self.r
-        if k == 1:
-            o = torch.addmm(b, prev, w[0])
-            z = o[:, :r] * torch.sigmoid(o[:, r:])
-            return torch.mm(z, u) * ctx
-        xt = prev.unflatten(1, (k, self.hidden)).transpose(0, 1)  # (k, B, hidden), a view
-        o = torch.baddbmm(b.unsqueeze(1), xt, w)  # (k, B, 2r): all V_k h_k and W_alpha,k h_k
-        z = o[..., :r] * torch.sigmoid(o[..., r:])
-        return torch.mm(z.transpose(0, 1).reshape(bsz, k * r), u) * ctx
+        n, r = w.shape[0], self.r
+        if n == 1:
+            o = torch.addmm(b[0], prev, w[0])
+            return o[:, :r] * (torch.sigmoid(o[:, r:]) * ctx)
+        xt = prev.unflatten(1, (n, self.hidden)).transpose(0, 1)  # (n, B, hidden), a view
+        o = torch.baddbmm(b, xt, w)  # (n, B, 2r): every V_k h_k and W_alpha,k h_k at once
+        if ctx.dim() == 2:
+            ctx = ctx.unsqueeze(0)
+        z = o[..., :r] * (torch.sigmoid(o[..., r:]) * ctx)
+        return z.transpose(0, 1).reshape(bsz, n * r)
 
     def lateral2(self, h1_prev: torch.Tensor, ctx: torch.Tensor | None) -> torch.Tensor:
         """Lateral into layer 2 from the concatenated earlier ``h1`` (B, k*hidden)."""
         if self.gated:
             assert ctx is not None
-            return self._gated(h1_prev, self.ad2_w, self.ad2_b, self.u2, ctx)
+            k = self.n_prev
+            return torch.mm(self._adapters(h1_prev, self.ad_w[:k], self.ad_b[:k], ctx), self.u2)
         return torch.mm(h1_prev, self.u2)
-
-    def lateral_q(self, h2_prev: torch.Tensor, ctx: torch.Tensor | None) -> torch.Tensor:
-        """Lateral into the Q-head from the concatenated earlier ``h2`` (B, k*hidden)."""
-        if self.gated:
-            assert ctx is not None
-            return self._gated(h2_prev, self.adq_w, self.adq_b, self.uq, ctx)
-        return torch.mm(h2_prev, self.uq)
 
     def context(self, states: torch.Tensor) -> torch.Tensor:
         """Context gate ``sigmoid(sum_m w_m s_m)``; states (4,) -> scalar, (B, 4) -> (B, 1)."""
@@ -166,12 +156,18 @@ class Column(nn.Module):
     ) -> torch.Tensor:
         """Q-values (B, n_actions) of this column."""
         h1 = torch.relu(torch.addmm(self.b1, x, self.w1))
-        h2 = self.hidden2(h1, h1_prev, ctx)
-        q = torch.addmm(self.bq, h2, self.wq)
-        if self.n_prev:
-            assert h2_prev is not None
-            q = q + self.lateral_q(h2_prev, ctx)
-        return q
+        if not self.n_prev:
+            return torch.addmm(self.bq, torch.relu(torch.addmm(self.b2, h1, self.w2)), self.wq)
+        assert h1_prev is not None and h2_prev is not None
+        if self.gated:
+            assert ctx is not None
+            # both laterals' adapters (from h1 and from h2 of the earlier columns) in one op
+            kr = self.n_prev * self.r
+            z = self._adapters(torch.cat((h1_prev, h2_prev), 1), self.ad_w, self.ad_b, ctx)
+            h2 = torch.relu(torch.addmm(self.b2, h1, self.w2) + torch.mm(z[:, :kr], self.u2))
+            return torch.addmm(self.bq, h2, self.wq) + torch.mm(z[:, kr:], self.uq)
+        h2 = torch.relu(torch.addmm(self.b2, h1, self.w2) + torch.mm(h1_prev, self.u2))
+        return torch.addmm(self.bq, h2, self.wq) + torch.mm(h2_prev, self.uq)
 
 
 class ProgressiveNet(nn.Module):

@@ -1,0 +1,99 @@
+"""BIARM vs PNN time per training step through the four-task sequence (SPEC §1.7, Table 3.3).
+
+All agents run in this one process, interleaved task by task (the order alternates between
+tasks so that machine load drifts hit every agent alike), each for the same fixed number of
+environment steps per task with one gradient step per environment step after
+``learning_starts``. The last line of ``--json`` output is
+``{"ratio": biarm_us / pnn_us, "ratio_adapter128": ..., ...}``; SPEC target: ratio <= 1.10.
+
+    python benchmarks/biarm_overhead.py --json [--steps 2000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import Any
+
+__all__ = ["run", "measure"]
+
+
+def measure(steps: int, rounds: int = 1, learning: str = "fixed") -> dict[str, Any]:
+    """Per-task and overall µs/step of pnn, biarm (r=32) and biarm (r=128)."""
+    from evodevo.config import replace
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import BiarmConfig, ModuleConfig, NetworkConfig
+    from evodevo.neuromod.tasks import resolve_tasks
+    from evodevo.neuromod.trainer import train_task
+    from evodevo.neuromod.variants import get_variant
+
+    base = BiarmConfig()
+    base = replace(base, modules=ModuleConfig(learning=learning))  # type: ignore[arg-type]
+    specs, d_max = resolve_tasks(base)
+    configs = {
+        "pnn": (base, "pnn"),
+        "biarm": (base, "biarm"),
+        "biarm_r128": (replace(base, network=NetworkConfig(adapter_dim=128)), "biarm"),
+    }
+    totals = {k: 0.0 for k in configs}
+    per_task: dict[str, list[float]] = {k: [0.0] * len(specs) for k in configs}
+    for rnd in range(rounds):
+        agents = {
+            k: BiarmAgent(c, get_variant(v), d_max, seed=rnd) for k, (c, v) in configs.items()
+        }
+        for i, spec in enumerate(specs):
+            order = list(agents) if (i + rnd) % 2 == 0 else list(reversed(agents))
+            for k in order:
+                t0 = time.perf_counter()
+                train_task(agents[k], spec, i, rnd, 0, None, None, max_env_steps=steps)
+                dt = time.perf_counter() - t0
+                totals[k] += dt
+                per_task[k][i] += dt
+    n = steps * len(specs) * rounds
+    us = {k: 1e6 * v / n for k, v in totals.items()}
+    return {
+        "ratio": us["biarm"] / us["pnn"],
+        "ratio_adapter128": us["biarm_r128"] / us["pnn"],
+        "pnn_us_per_step": us["pnn"],
+        "biarm_us_per_step": us["biarm"],
+        "biarm_r128_us_per_step": us["biarm_r128"],
+        "per_task_ratio": {
+            s.env_id: per_task["biarm"][i] / per_task["pnn"][i] for i, s in enumerate(specs)
+        },
+        "per_task_ratio_adapter128": {
+            s.env_id: per_task["biarm_r128"][i] / per_task["pnn"][i] for i, s in enumerate(specs)
+        },
+        "steps_per_task": steps,
+        "rounds": rounds,
+        "module_learning": learning,
+    }
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    """Suite entry point: a short measurement when ``quick``."""
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    return measure(steps=400 if quick else 2000, rounds=1 if quick else 2)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", action="store_true", help="print one JSON line at the end")
+    ap.add_argument("--steps", type=int, default=2000, help="environment steps per task")
+    ap.add_argument("--rounds", type=int, default=2, help="repetitions with fresh agents")
+    ap.add_argument("--learning", default="fixed", choices=["fixed", "learned"])
+    args = ap.parse_args()
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    res = measure(args.steps, args.rounds, args.learning)
+    if not args.json:
+        for k, v in res.items():
+            print(f"{k}: {v}")
+    print(json.dumps(res))
+
+
+if __name__ == "__main__":
+    main()
