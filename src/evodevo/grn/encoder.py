@@ -69,10 +69,10 @@ class Encoder(nn.Module):
 
     def weights(self) -> dict[str, torch.Tensor]:
         """The weights by layer name (what :meth:`save` writes)."""
-        out = {}
+        out: dict[str, torch.Tensor] = {}
         for name, *_ in _LAYERS:
-            out[f"{name}.weight"] = getattr(self, f"{name}_weight")
-            out[f"{name}.bias"] = getattr(self, f"{name}_bias")
+            out[f"{name}.weight"] = self.get_buffer(f"{name}_weight")
+            out[f"{name}.bias"] = self.get_buffer(f"{name}_bias")
         return out
 
     def save(self, path: str | Path) -> None:
@@ -95,8 +95,9 @@ class Encoder(nn.Module):
 
     def forward(self, images: torch.Tensor) -> torch.Tensor:
         """(B, 3, 48, 48) float in [0, 1] → (B, 128) unit-norm features."""
-        h = F.relu(F.conv2d(images, self.conv1_weight, self.conv1_bias, stride=_LAYERS[0][4]))
-        h = F.relu(F.conv2d(h, self.conv2_weight, self.conv2_bias, stride=_LAYERS[1][4]))
+        w = self.weights()
+        h = F.relu(F.conv2d(images, w["conv1.weight"], w["conv1.bias"], stride=_LAYERS[0][4]))
+        h = F.relu(F.conv2d(h, w["conv2.weight"], w["conv2.bias"], stride=_LAYERS[1][4]))
         h = self.pool(h).flatten(1)
         return F.normalize(h, p=2.0, dim=1)
 

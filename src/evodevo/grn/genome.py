@@ -195,9 +195,9 @@ def init_genome(config: Any, n_actions: int, rng: np.random.Generator) -> GrnGen
     mask = rng.random((n, n)) < gi.wr_density
     W_r = np.where(mask, rng.normal(0.0, gi.wr_std, (n, n)), 0.0)
     W_m = rng.normal(0.0, gi.wm_std, (n, n_actions))
-    theta = rng.uniform(*gi.theta_init, n)
-    delta = rng.uniform(*gi.delta_init, n)
-    alpha = rng.uniform(*gi.alpha_init, n)
+    theta = rng.uniform(gi.theta_init[0], gi.theta_init[1], n)
+    delta = rng.uniform(gi.delta_init[0], gi.delta_init[1], n)
+    alpha = rng.uniform(gi.alpha_init[0], gi.alpha_init[1], n)
     P = rng.normal(0.0, gi.p_std, (config.sensors.feature_dim, config.sensors.n_visual))
     return GrnGenome(W_s, W_r, W_m, theta, delta, alpha, P)
 
