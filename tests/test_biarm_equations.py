@@ -16,6 +16,16 @@ from evodevo.neuromod.modules import Neuromodulators, ema_update, novelty_decay
 from evodevo.neuromod.padding import check_fits, phi, phi_into
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread():
+    """One torch thread, as the CLI and workers use (two threads on a loaded 2-core box
+    make these small networks many times slower); restored afterwards."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
 def _sig(x: float) -> float:
     return 1.0 / (1.0 + math.exp(-x))
 
