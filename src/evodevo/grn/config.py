@@ -28,6 +28,7 @@ __all__ = [
     "EvaluationConfig",
     "EnvConfig",
     "OpenLoopConfig",
+    "NeuromodConfig",
     "GrnConfig",
 ]
 
@@ -69,10 +70,16 @@ class SensorConfig:
     n_proprio: int = doc(4, "proprioceptive values read from info['proprio']")
     feature_dim: int = doc(128, "CNN encoder output size (32 channels x 2 x 2)")
     blind: bool = doc(False, "replace the visual features by zeros (the blind-GRN control, §2.5)")
+    vector_range: tuple[float, float] = doc(
+        (-1.0, 1.0),
+        "vector-observation envs: the Box bounds are mapped linearly onto this range "
+        "(n_visual 0, n_proprio = observation size)",
+    )
 
     def validate(self) -> None:
         _check_range("n_visual", self.n_visual, 0)
         _check_range("n_proprio", self.n_proprio, 0)
+        _check_bounds("vector_range", self.vector_range)
         if self.feature_dim != 128:
             raise ConfigError(
                 f"feature_dim={self.feature_dim} is fixed to 128 by the encoder of SPEC §2.2"
@@ -222,13 +229,74 @@ class OpenLoopConfig:
 
 
 @dataclass
+class NeuromodConfig:
+    """The neuromodulated GRN of SPEC §5 (thesis Eq. 5.1–5.4, modulators by Eq. 3.1 and 3.5).
+
+    Modulators are always ordered DA, 5HT, NE, ACh.
+    """
+
+    tau: tuple[float, float, float, float] = doc(
+        (0.1, 0.5, 0.05, 0.3), "Eq. 3.1 rates tau_m of DA, 5HT, NE, ACh (Chapter 3)"
+    )
+    m0: float = doc(0.5, "modulator states at the start of every episode")
+    novelty_decay: float = doc(0.995, "novelty n <- novelty_decay * n per step, n = 1 at start")
+    reward_scale: float = doc(1.0, "the DA network reads tanh(reward_scale * reward so far)")
+    hidden: int = doc(8, "hidden ReLU units of each modulator target network")
+    net_init_std: float = doc(0.5, "target-network weights and hidden biases ~ N(0, std^2) at init")
+    gamma_init_std: float = doc(0.5, "gamma_m ~ N(0, std^2) at init, clipped to its bounds")
+    gamma_da_bounds: tuple[float, float] = doc((-2.0, 2.0), "bounds of gamma_DA (Eq. 5.2)")
+    gamma_5ht_bounds: tuple[float, float] = doc(
+        (-1.5, 1.5), "bounds of gamma_5HT (Eq. 5.3); |gamma| < 2 keeps theta > 0"
+    )
+    gamma_ne_bounds: tuple[float, float] = doc((-1.0, 1.0), "bounds of gamma_NE (Eq. 5.4)")
+    gamma_ach_bounds: tuple[float, float] = doc((-1.0, 1.0), "bounds of gamma_ACh (Eq. 5.4)")
+    p_net: float = doc(0.2, "probability, per target network, of weight noise")
+    p_gamma: float = doc(0.2, "probability of noise on the gamma vector")
+    sigma: float = doc(0.1, "std of the target-network and gamma noise")
+
+    @property
+    def gamma_bounds(self) -> tuple[tuple[float, float], ...]:
+        """Bounds of (gamma_DA, gamma_5HT, gamma_NE, gamma_ACh)."""
+        return (
+            self.gamma_da_bounds,
+            self.gamma_5ht_bounds,
+            self.gamma_ne_bounds,
+            self.gamma_ach_bounds,
+        )
+
+    def validate(self) -> None:
+        for i, t in enumerate(self.tau):
+            _check_range(f"tau[{i}]", t, 0.0, 1.0)
+        _check_range("m0", self.m0, 0.0, 1.0)
+        _check_range("novelty_decay", self.novelty_decay, 0.0, 1.0)
+        _check_range("reward_scale", self.reward_scale, 0.0)
+        _check_range("hidden", self.hidden, 1)
+        for key in ("net_init_std", "gamma_init_std", "sigma"):
+            _check_range(key, getattr(self, key), 0.0)
+        for key in ("p_net", "p_gamma"):
+            _check_range(key, getattr(self, key), 0.0, 1.0)
+        for name in ("da", "5ht", "ne", "ach"):
+            bounds = getattr(self, f"gamma_{name}_bounds")
+            if not bounds[0] <= bounds[1]:
+                raise ConfigError(
+                    f"gamma_{name}_bounds={list(bounds)!r} must be [low, high] with low <= high"
+                )
+        if max(abs(b) for b in self.gamma_5ht_bounds) >= 2.0:
+            raise ConfigError(
+                f"gamma_5ht_bounds={list(self.gamma_5ht_bounds)!r} must lie inside (-2, 2): "
+                "Eq. 5.3 would make a threshold 0 or negative"
+            )
+
+
+@dataclass
 class GrnConfig:
     """Everything a GRN run needs (SPEC §2). Saved resolved in ``config.json`` of the run."""
 
     seed: int = doc(0, "run seed: encoder weights, genomes, episode seeds, noise")
     controller: str = doc(
         "plain",
-        "controller kind: plain | open_loop | a registered name | 'module:attr' of a ControllerKind",
+        "controller kind: plain | neuromodulated | open_loop | a registered name | "
+        "'module:attr' of a ControllerKind",
     )
     dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
     sensors: SensorConfig = field(default_factory=SensorConfig)
@@ -238,6 +306,7 @@ class GrnConfig:
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     env: EnvConfig = field(default_factory=EnvConfig)
     open_loop: OpenLoopConfig = field(default_factory=OpenLoopConfig)
+    neuromod: NeuromodConfig = field(default_factory=NeuromodConfig)
 
     def validate(self) -> None:
         if not self.controller:

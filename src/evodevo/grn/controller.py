@@ -163,6 +163,32 @@ class PlainGrnController:
         x = np.full((len(genomes), batch.theta.shape[-1]), self.dyn.x0)
         return GrnState(batch, x)
 
+    def sense(
+        self,
+        P: np.ndarray,
+        n_genes: int,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Sensor vectors (len(idx), n_s) and expression noise eta (len(idx), n) for one step.
+
+        Per slot, the visual noise (noisy episodes only) is drawn before eta, from the slot's
+        own generator, so results do not depend on batching.
+        """
+        n_visual = self.sensors.n_visual
+        vis_noise = np.zeros((len(rngs), n_visual))
+        eta = np.zeros((len(rngs), n_genes))
+        noise_std = self.config.evaluation.visual_noise
+        for b, rng in enumerate(rngs):
+            if noisy[b] and not self.sensors.blind:
+                vis_noise[b] = rng.normal(0.0, noise_std, n_visual)
+            if self.dyn.noise_std > 0:
+                eta[b] = rng.normal(0.0, self.dyn.noise_std, n_genes)
+        s = sensor_vector(features, P, proprio, vis_noise, blind=self.sensors.blind)
+        return s, eta
+
     def step(
         self,
         state: GrnState,
@@ -173,16 +199,7 @@ class PlainGrnController:
         noisy: np.ndarray,
     ) -> np.ndarray:
         g = state.genome
-        n_visual, n = self.sensors.n_visual, state.x.shape[1]
-        vis_noise = np.zeros((len(idx), n_visual))
-        eta = np.zeros((len(idx), n))
-        noise_std = self.config.evaluation.visual_noise
-        for b, rng in enumerate(rngs):  # per-slot draws: results do not depend on batching
-            if noisy[b] and not self.sensors.blind:
-                vis_noise[b] = rng.normal(0.0, noise_std, n_visual)
-            if self.dyn.noise_std > 0:
-                eta[b] = rng.normal(0.0, self.dyn.noise_std, n)
-        s = sensor_vector(features, g.P[idx], proprio, vis_noise, blind=self.sensors.blind)
+        s, eta = self.sense(g.P[idx], state.x.shape[1], features, proprio, rngs, noisy)
         x = expression_step(
             state.x[idx],
             s,
@@ -241,6 +258,7 @@ BASELINES: dict[str, type[ZeroPolicy]] = {"zero": ZeroPolicy, "random": RandomPo
 
 _REGISTRY: dict[str, Callable[..., Any] | str] = {
     "plain": PlainGrnController,
+    "neuromodulated": "evodevo.grn.neuromodulated:NeuromodGrnController",
     "open_loop": "evodevo.grn.open_loop:OpenLoopController",
 }
 

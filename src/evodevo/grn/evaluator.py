@@ -11,6 +11,14 @@ Results never depend on the number of workers or on the lockstep grouping: every
 fully described by its env seed, its noisy flag and its noise seed (the controller's noise
 generator for that (genome, episode) pair), all derived from the run seed by the caller.
 
+Any Gymnasium env with a flat Box action space can be driven. With an image observation the
+encoder turns it into features and ``info["proprio"]`` supplies the proprioceptive values
+(SPEC §2.2); with a flat Box observation (e.g. ``Pendulum-v1``) the encoder is skipped and the
+observation itself, its Box bounds mapped onto ``sensors.vector_range``, takes the place of the
+proprioceptive values (configure ``sensors.n_visual: 0`` and ``sensors.n_proprio`` = its size).
+A policy that defines ``observe_reward(state, idx, rewards)`` is told each step's rewards after
+the env steps (the neuromodulated GRN's reward-so-far signal, SPEC §5).
+
 >>> Episode(seed=3, noisy=False).noise_seed == Episode(seed=3, noisy=True).noise_seed
 True
 """
@@ -39,6 +47,8 @@ __all__ = [
     "Evaluator",
     "make_env",
     "action_dims",
+    "is_vector_observation",
+    "scale_observation",
     "run_episodes",
     "NOISE_KEY",
 ]
@@ -94,6 +104,38 @@ def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) ->
         return gym.make(env_id, **{**(kwargs or {}), **extra})
     except gym.error.Error as exc:
         raise EvodevoError(f"cannot make environment {env_id!r}: {exc}") from None
+    except TypeError as exc:
+        hint = (
+            "; it has no held-out test objects: evaluate with --objects train"
+            if "test_objects" in extra
+            else ""
+        )
+        raise EvodevoError(f"cannot make environment {env_id!r}: {exc}{hint}") from None
+
+
+def is_vector_observation(space: gym.Space[Any]) -> bool:
+    """True for a flat Box observation (fed to the GRN directly, without the encoder)."""
+    return isinstance(space, gym.spaces.Box) and len(space.shape) == 1
+
+
+def scale_observation(
+    obs: np.ndarray, space: gym.spaces.Box, out_range: tuple[float, float]
+) -> np.ndarray:
+    """Map a vector observation's Box bounds linearly onto ``out_range``.
+
+    Dimensions with infinite (or empty) bounds pass through unscaled.
+
+    >>> box = gym.spaces.Box(np.array([-8.0, -np.inf]), np.array([8.0, np.inf]), dtype=np.float64)
+    >>> scale_observation(np.array([4.0, 3.0]), box, (-1.0, 1.0)).tolist()
+    [0.5, 3.0]
+    """
+    lo, hi = space.low.astype(np.float64), space.high.astype(np.float64)
+    x = np.asarray(obs, dtype=np.float64).reshape(-1)
+    finite = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
+    a, b = out_range
+    span = np.where(finite, hi - lo, 1.0)
+    scaled = a + (x - np.where(finite, lo, 0.0)) * (b - a) / span
+    return np.where(finite, scaled, x)
 
 
 def action_dims(space: gym.Space[Any]) -> int:
@@ -124,6 +166,11 @@ def _proprio(info: dict[str, Any], n: int) -> np.ndarray:
     return p
 
 
+def _vector_range(policy: Any) -> tuple[float, float]:
+    sensors = getattr(getattr(policy, "config", None), "sensors", None)
+    return tuple(sensors.vector_range) if sensors is not None else (-1.0, 1.0)  # type: ignore[return-value]
+
+
 def run_episodes(
     envs: Sequence[gym.Env[Any, Any]],
     encoder: Encoder | None,
@@ -132,22 +179,43 @@ def run_episodes(
     episodes: Sequence[Episode],
     n_proprio: int = 4,
     record: bool = False,
+    vector_range: tuple[float, float] | None = None,
 ) -> dict[str, Any]:
     """Run ``len(episodes)`` episodes in lockstep, slot b driving ``envs[b]`` with ``genomes[b]``.
 
+    Args:
+        vector_range: for vector-observation envs, the range the observation is scaled to
+            (default: the policy's ``config.sensors.vector_range``, else [-1, 1]).
+
     Returns:
         ``{"reward", "success", "steps"}`` arrays of length B, and with ``record`` the per-step
-        expression ``x`` (list of (B, n) arrays, when the policy has one), ``actions`` and
-        ``frames`` (observations) for figures.
+        expression ``x`` (list of (B, n) arrays, when the policy has one), modulator states
+        ``m`` (when the policy has them), ``actions`` and ``frames`` (observations) for figures.
     """
     n_b = len(episodes)
     if len(envs) < n_b or len(genomes) != n_b:
         raise ValueError("run_episodes needs one env and one genome per episode")
+    space = getattr(envs[0], "observation_space", None)  # proxies (recording) may lack it
+    vector = space is not None and is_vector_observation(space)
+    vrange = vector_range if vector_range is not None else _vector_range(policy)
+
+    def sensors(o: Any, info: dict[str, Any]) -> np.ndarray:
+        if not vector:
+            return _proprio(info, n_proprio)
+        v = scale_observation(o, space, vrange)  # type: ignore[arg-type]
+        if v.shape[0] != n_proprio:
+            raise EvodevoError(
+                f"the observation has {v.shape[0]} values; the controller expects {n_proprio} "
+                f"(set sensors.n_visual: 0 and sensors.n_proprio: {v.shape[0]})"
+            )
+        return v
+
+    observe = getattr(policy, "observe_reward", None)
     obs, prop = [], []
     for b, ep in enumerate(episodes):
         o, info = envs[b].reset(seed=int(ep.seed))
         obs.append(o)
-        prop.append(_proprio(info, n_proprio))
+        prop.append(sensors(o, info))
     obs_arr, prop_arr = np.stack(obs), np.stack(prop)
     rngs = [np.random.default_rng(ep.noise_seed) for ep in episodes]
     noisy = np.array([ep.noisy for ep in episodes])
@@ -156,28 +224,36 @@ def run_episodes(
     success = np.zeros(n_b, dtype=bool)
     steps = np.zeros(n_b, dtype=int)
     active = np.ones(n_b, dtype=bool)
-    trace: dict[str, list[Any]] = {"x": [], "actions": [], "frames": []}
+    trace: dict[str, list[Any]] = {"x": [], "m": [], "actions": [], "frames": []}
     if record:
         trace["frames"].append(obs_arr.copy())
     while active.any():
         idx = np.flatnonzero(active)
-        feats = encoder.features(obs_arr[idx]) if (policy.uses_encoder and encoder) else None
+        use_encoder = policy.uses_encoder and encoder is not None and not vector
+        feats = encoder.features(obs_arr[idx]) if use_encoder else None  # type: ignore[union-attr]
+        if getattr(policy, "uses_image", False):  # e.g. an SB3 CNN policy: the raw observations
+            feats = obs_arr[idx]
         actions = policy.step(state, idx, feats, prop_arr[idx], [rngs[i] for i in idx], noisy[idx])
         if not np.all(np.isfinite(actions)):
             raise EvodevoError("the controller produced non-finite actions")
+        step_r = np.zeros(len(idx))
         for j, b in enumerate(idx):
             env = envs[b]
             o, r, term, trunc, info = env.step(_scale_actions(actions[j], env.action_space))
             obs_arr[b] = o
-            prop_arr[b] = _proprio(info, n_proprio)
+            prop_arr[b] = sensors(o, info)
+            step_r[j] = float(r)
             reward[b] += float(r)
             steps[b] += 1
             if term or trunc:
                 active[b] = False
                 success[b] = bool(info.get("is_success", float(r) > 0))
+        if observe is not None:
+            observe(state, idx, step_r)
         if record:
-            if hasattr(state, "x"):
-                trace["x"].append(np.array(state.x, copy=True))
+            for key in ("x", "m"):
+                if hasattr(state, key):
+                    trace[key].append(np.array(getattr(state, key), copy=True))
             trace["actions"].append(np.array(actions, copy=True))
             trace["frames"].append(obs_arr.copy())
     out: dict[str, Any] = {"reward": reward, "success": success, "steps": steps}
@@ -196,8 +272,10 @@ class _WorkerContext:
 
     def get_envs(self, test_objects: bool, n: int) -> list[gym.Env[Any, Any]]:
         pool = self.envs.setdefault(test_objects, [])
+        # only the Kuka env knows test_objects; False is its default, so other envs work too
+        extra = {"test_objects": True} if test_objects else {}
         while len(pool) < n:
-            pool.append(make_env(self.env_id, self.env_kwargs, test_objects=test_objects))
+            pool.append(make_env(self.env_id, self.env_kwargs, **extra))
         return pool[:n]
 
     def close(self) -> None:
@@ -259,6 +337,19 @@ def _run_task(task: _Task) -> dict[str, np.ndarray]:
     return out
 
 
+def _check_sensors(config: Any, space: gym.Space[Any]) -> None:
+    """A vector observation replaces the sensors: n_visual must be 0, n_proprio its size."""
+    if not is_vector_observation(space):
+        return
+    dim, sens = int(space.shape[0]), config.sensors  # type: ignore[index]
+    if sens.n_visual != 0 or sens.n_proprio != dim:
+        raise EvodevoError(
+            f"environment {config.env.id!r} has a {dim}-d vector observation, which is the "
+            f"sensor vector; set sensors.n_visual: 0 and sensors.n_proprio: {dim} "
+            f"(now {sens.n_visual} and {sens.n_proprio})"
+        )
+
+
 def _shape_key(genome: Any) -> tuple[Any, ...]:
     if genome is None:
         return ()
@@ -287,6 +378,7 @@ class Evaluator:
         try:
             self.action_space = probe.action_space
             self.n_actions = action_dims(probe.action_space)
+            _check_sensors(config, probe.observation_space)
         finally:
             probe.close()
         state = {k: v.clone() for k, v in encoder.weights().items()} if encoder else None

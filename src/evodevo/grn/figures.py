@@ -8,7 +8,9 @@
 * ``rolling_success_<eval>.png`` — rolling success over the test episodes, genome beside the
   trivial policies (``eval_*_episodes.csv``);
 * ``ablations.png`` — change in success per ablation with its interval (``ablations.csv``);
-* ``expression_trace.png`` — gene expression of one test episode (``trace.npz``).
+* ``expression_trace.png`` — gene expression of one test episode (``trace.npz``);
+* ``modulator_trace.png`` — neuromodulated GRN (SPEC §5): the four modulator states, the gene
+  expression and the actions of one test episode (``modulator_trace.npz``).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 from evodevo.errors import EvodevoError
 from evodevo.runs import RunDir
 
-__all__ = ["plot_run", "ROLLING_WINDOW"]
+__all__ = ["plot_run", "plot_modulator_trace", "ROLLING_WINDOW"]
 
 ROLLING_WINDOW = 10
 """Episodes in the rolling success window."""
@@ -180,12 +182,58 @@ def plot_trace(run: RunDir, out: Path) -> list[Path]:
     return [p]
 
 
+def plot_modulator_trace(run: RunDir, out: Path) -> list[Path]:
+    """Modulator states m_DA, m_5HT, m_NE, m_ACh, gene expression and actions of one episode."""
+    from evodevo.grn.genome import load_arrays
+    from evodevo.grn.neuromodulated import MODULATOR_TRACE_FILE
+
+    if not (run / MODULATOR_TRACE_FILE).is_file():
+        return []
+    arrays, meta = load_arrays(run / MODULATOR_TRACE_FILE, "grn_modulator_trace")
+    m, x, actions = arrays["m"], arrays["x"], arrays["actions"]
+    plt = _plt()
+    fig, (a0, a1, a2) = plt.subplots(3, 1, figsize=(6, 7), sharex=True)
+    steps = np.arange(1, m.shape[0] + 1)
+    gamma = meta.get("gamma", [float("nan")] * 4)
+    for j, name in enumerate(meta.get("modulators", ["DA", "5HT", "NE", "ACh"])):
+        a0.plot(steps, m[:, j], lw=1.5, label=f"{name} (gamma {gamma[j]:+.2f})")
+    a0.axhline(0.5, color="k", lw=0.6, ls=":")
+    a0.set_ylabel("modulator state")
+    a0.legend(fontsize=7, ncol=2)
+    outcome = "success" if meta.get("success") else "failure"
+    a0.set_title(
+        f"neuromodulated GRN, {meta.get('objects')} episode {meta.get('index')} "
+        f"({outcome}, return {meta.get('reward', float('nan')):.3g})",
+        fontsize=9,
+    )
+    a1.plot(steps, x, lw=0.7, alpha=0.7)
+    a1.set_ylabel("expression x_i")
+    a1.set_ylim(-0.02, 1.02)
+    for j in range(actions.shape[1]):
+        a2.plot(steps, actions[:, j], lw=1.0, label=f"a{j}")
+    a2.set_xlabel("env step")
+    a2.set_ylabel("action")
+    a2.legend(fontsize=7)
+    fig.tight_layout()
+    p = out / "modulator_trace.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    return [p]
+
+
 def plot_run(path: str | Path) -> list[Path]:
     """Draw every figure whose data exists into ``DIR/figures``; returns the files written."""
     run = RunDir(path, create=False)
     out = run.path / "figures"
     out.mkdir(exist_ok=True)
     paths: list[Path] = []
-    for fn in (plot_history, plot_heatmap, plot_rolling, plot_ablations, plot_trace):
+    for fn in (
+        plot_history,
+        plot_heatmap,
+        plot_rolling,
+        plot_ablations,
+        plot_trace,
+        plot_modulator_trace,
+    ):
         paths += fn(run, out)
     return paths
