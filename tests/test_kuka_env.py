@@ -183,3 +183,52 @@ def test_other_action_spaces_and_render() -> None:
             d.step(7)
     finally:
         d.close()
+
+
+# ---------------------------------------------------------------- against the original (slow)
+
+
+def _env_speed():
+    import importlib.util
+    import pathlib
+
+    path = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "env_speed.py"
+    spec = importlib.util.spec_from_file_location("env_speed", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+_ORIG_PYTHON = _env_speed().orig_python()
+requires_original = pytest.mark.skipif(
+    _ORIG_PYTHON is None,
+    reason="no isolated venv with the original (set EVODEVO_ORIG_PYTHON or create /work/origvenv)",
+)
+
+
+@pytest.mark.slow
+@requires_original
+@pytest.mark.parametrize("policy", ["down", "random"])
+def test_bit_identical_to_original(policy: str) -> None:
+    """With the original's pair order, a fresh instance replays the original bit for bit."""
+    es = _env_speed()
+    seeds = [0, 1, 2]
+    ours = es.run_worker("ours", policy, seeds, exact=True)
+    orig = es.run_worker("orig", policy, seeds, python=_ORIG_PYTHON)
+    assert ours["rewards"] == orig["rewards"]
+    assert ours["steps"] == orig["steps"]
+    assert ours["digests"] == orig["digests"]
+
+
+@pytest.mark.slow
+@requires_original
+def test_success_rate_matches_original() -> None:
+    """SPEC §3: same success rate as the original under a seeded random policy."""
+    es = _env_speed()
+    res = es.compare_success(episodes=80, policies=("random",), orig=_ORIG_PYTHON, jobs=2)
+    row = res["random"]
+    lo_a, hi_a = row["ours"]["wilson95"]
+    lo_b, hi_b = row["orig"]["wilson95"]
+    assert lo_a <= hi_b and lo_b <= hi_a, row
+    assert row["fisher_p"] > 0.01, row
