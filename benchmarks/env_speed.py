@@ -225,18 +225,20 @@ def run(
     res: dict[str, Any] = {"episodes_per_policy": n, "policies": list(policies)}
     totals: dict[str, dict[str, float]] = {}
     per_policy: dict[str, Any] = {}
-    for which in ("ours", "orig"):
-        if which == "orig" and py is None:
-            continue
-        tot = {"cpu_s": 0.0, "wall_s": 0.0, "episodes": 0, "success": 0.0}
-        for pol in policies:
+    # Alternate ours and the original policy by policy, so that both see the same machine load.
+    for pol in policies:
+        for which in ("ours", "orig"):
+            if which == "orig" and py is None:
+                continue
+            tot = totals.setdefault(
+                which, {"cpu_s": 0.0, "wall_s": 0.0, "episodes": 0, "success": 0.0}
+            )
             r = run_worker(which, pol, seeds, python=py if which == "orig" else None)
             per_policy.setdefault(pol, {})[which] = r["rewards"]
             tot["cpu_s"] += r["cpu_s"]
             tot["wall_s"] += r["wall_s"]
             tot["episodes"] += len(r["rewards"])
             tot["success"] += sum(r["rewards"])
-        totals[which] = tot
     for which, tot in totals.items():
         res[f"{which}_episodes_per_s"] = tot["episodes"] / tot["cpu_s"]
         res[f"{which}_episodes_per_wall_s"] = tot["episodes"] / tot["wall_s"]
@@ -269,14 +271,16 @@ def compare_success(
     orig: str | None = None,
     seed0: int = 0,
     jobs: int = 2,
-    chunk: int = 25,
+    chunk: int = 10,
     test_objects: bool = False,
+    cache: str | None = None,
 ) -> dict[str, Any]:
     """Success rates of ours and the original under the same policies and episode seeds.
 
-    Workers (chunks of ``chunk`` episodes) run ``jobs`` at a time. Ours runs as in normal use
-    (one instance, ``deterministic_pairs=True``), so episodes are paired with the original's
-    but not bit-identical to them.
+    Workers (chunks of ``chunk`` episodes) run ``jobs`` at a time, chunk by chunk over the
+    policies. Ours runs as in normal use (one instance, ``deterministic_pairs=True``), so
+    episodes are paired with the original's but not bit-identical to them. With ``cache`` (a
+    folder), each chunk's result is stored there and reused, so an interrupted run resumes.
 
     Returns:
         Per policy: successes, n, Wilson 95 % intervals, the two-sided Fisher exact p-value of
@@ -294,16 +298,26 @@ def compare_success(
         raise RuntimeError("the original's venv is missing; see --orig-python")
     seeds = list(range(seed0, seed0 + episodes))
     chunks = [seeds[i : i + chunk] for i in range(0, len(seeds), chunk)]
-    tasks = [(w, pol, c) for pol in policies for w in ("orig", "ours") for c in chunks]
+    tasks = [(w, pol, c) for c in chunks for pol in policies for w in ("orig", "ours")]
+
+    def one(task: tuple[str, str, list[int]]) -> dict[str, Any]:
+        w, pol, c = task
+        path = None
+        if cache:
+            os.makedirs(cache, exist_ok=True)
+            name = f"{w}_{pol}_{'test' if test_objects else 'train'}_{c[0]}-{c[-1]}.json"
+            path = os.path.join(cache, name)
+            if os.path.exists(path):
+                with open(path) as fh:
+                    return json.load(fh)
+        out = run_worker(w, pol, c, test_objects, python=py if w == "orig" else None)
+        if path:
+            with open(path, "w") as fh:
+                json.dump(out, fh)
+        return out
+
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        outs = list(
-            pool.map(
-                lambda t: run_worker(
-                    t[0], t[1], t[2], test_objects, python=py if t[0] == "orig" else None
-                ),
-                tasks,
-            )
-        )
+        outs = list(pool.map(one, tasks))
     rewards: dict[tuple[str, str], list[float]] = {}
     for (w, pol, _), out in zip(tasks, outs, strict=True):
         rewards.setdefault((pol, w), []).extend(out["rewards"])
@@ -362,6 +376,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     ap.add_argument("--jobs", type=int, default=2, help="parallel workers for --stats")
     ap.add_argument("--out", default=None, help="write the JSON result here too")
+    ap.add_argument("--cache", default=None, help="folder of per-chunk results for --stats")
     ap.add_argument("--worker", choices=("orig", "ours"), help=argparse.SUPPRESS)
     ap.add_argument("--seeds", default="", help=argparse.SUPPRESS)
     ap.add_argument("--test-objects", action="store_true", help=argparse.SUPPRESS)
@@ -379,6 +394,7 @@ def main(argv: list[str] | None = None) -> None:
             orig=args.orig_python,
             seed0=args.seed0,
             jobs=args.jobs,
+            cache=args.cache,
         )
         if not args.json:
             print(stats_table(res))
