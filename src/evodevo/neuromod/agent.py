@@ -116,7 +116,7 @@ class BiarmAgent:
         if self.modules is not None:
             self.modules.step(obs, reward)
 
-    def update(self, batch: Batch) -> float:
+    def update(self, batch: Batch) -> torch.Tensor:
         """One DQN gradient step (SPEC §1.6) at the Eq. 3.7 learning rate; returns the loss."""
         obs, nobs, act, rew, term, n_task = batch
         dqn = self.cfg.dqn
@@ -151,16 +151,20 @@ class BiarmAgent:
             y = rew + dqn.gamma * (1.0 - term) * q_next
         loss = huber(q, y, dqn.huber_delta)
         opt = self.optimizer
-        opt.zero_grad(set_to_none=True)
+        for p in self.params:
+            p.grad = None
         loss.backward()
-        torch.nn.utils.clip_grad_norm_(self.params, dqn.grad_clip, foreach=True)
+        grads = [p.grad for p in self.params if p.grad is not None]
+        # gradient-norm clip (what clip_grad_norm_ does, without its per-call bookkeeping)
+        total = torch.linalg.vector_norm(torch.stack(torch._foreach_norm(grads)))
+        torch._foreach_mul_(grads, torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
         if self.modules is not None:
             set_lr(opt, self.lr())
         opt.step()
         self.grad_steps += 1
         if self.grad_steps % dqn.target_update == 0:
             target.load_state_dict(column.state_dict())
-        return float(loss.detach())
+        return loss
 
     # ------------------------------------------------------------------ evaluation
     def greedy_q(self, x: torch.Tensor, col: int) -> torch.Tensor:
