@@ -14,6 +14,7 @@ from test_grn_fakeenv import FAKE_ID
 from typer.testing import CliRunner
 
 from evodevo.cli import app
+from evodevo.errors import EvodevoError
 from evodevo.grn.figures import plot_run
 from evodevo.grn.genome import load_arrays
 from evodevo.grn.neuromodulated import (
@@ -70,16 +71,30 @@ def test_modulator_ablations_trace_and_figure(fake_neuromod_run):
     run = fake_neuromod_run
     res = invoke("evaluate", run, "--episodes", 4, "--noise", 0.03, "--no-baselines", "--json")
     assert json.loads(res.output.strip().splitlines()[-1])["controller"] == "neuromodulated"
-    rows = run_modulator_ablations(run, episodes=6)
+    res = invoke("ablate", run, "--modulators", "--episodes", 6)
+    assert "no_ACh" in res.output and "Modulator ablations" in res.output
+    rows = json.loads((run / "modulator_ablations.json").read_text())["rows"]
     assert [r["ablation"] for r in rows] == ["intact", *MODULATOR_ABLATIONS]
     assert rows[0]["change"] == 0.0 and all(r["episodes"] == 6 for r in rows)
     assert len(rows[0]["gamma"]) == 4
     assert (run / "modulator_ablations.md").read_text().startswith("Modulator ablations")
-    path = record_modulator_trace(run)
-    arrays, meta = load_arrays(path, "grn_modulator_trace")
+    res = invoke("plot", run)
+    names = {p.rsplit("/", 1)[-1] for p in res.output.split()}
+    assert {"modulator_trace.png", "expression_trace.png", "regulatory_heatmap.png"} <= names
+    arrays, meta = load_arrays(run / MODULATOR_TRACE_FILE, "grn_modulator_trace")
     assert arrays["m"].shape == (7, 4) and arrays["x"].shape == (7, 50)
     assert np.all((arrays["m"] > 0) & (arrays["m"] < 1))
     assert meta["modulators"] == ["DA", "5HT", "NE", "ACh"]
-    assert (run / MODULATOR_TRACE_FILE).is_file()
-    names = {p.name for p in plot_run(run)}
-    assert {"modulator_trace.png", "regulatory_heatmap.png", "fitness_success.png"} <= names
+    assert record_modulator_trace(run, index=1) == run / MODULATOR_TRACE_FILE
+    assert "modulator_trace.png" in {p.name for p in plot_run(run)}
+    with pytest.raises(EvodevoError, match="neuromodulated run"):
+        run_modulator_ablations(plain_run(run.parent), episodes=1)
+
+
+def plain_run(tmp_path):
+    cfg = tmp_path / "fake_plain.yaml"
+    cfg.write_text(f"env:\n  id: '{FAKE_ID}'\n  kwargs: {{}}\n")
+    out = tmp_path / "plain"
+    invoke("evolve", "--config", cfg, "--population", 2, "--generations", 1, "--episodes", 1,
+           "--out", out, "--quiet")  # fmt: skip
+    return out

@@ -166,6 +166,9 @@ def ablate(
     objects: str = typer.Option("test", help="test or train objects."),
     seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
     workers: int = typer.Option(1, help="Worker processes."),
+    modulators: bool = typer.Option(
+        False, "--modulators", help="Neuromodulated GRN: set each gamma to 0 instead (SPEC §5)."
+    ),
 ) -> None:
     """The nine ablations of SPEC §2.5 on the best genome: ablations.md/.csv and a figure."""
     from evodevo.grn.ablations import run_ablations
@@ -176,6 +179,12 @@ def ablate(
     set_single_thread()
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    if modulators:
+        from evodevo.grn.neuromodulated import run_modulator_ablations
+
+        run_modulator_ablations(run_dir, episodes, objects, seed, workers)
+        typer.echo((run_dir / "modulator_ablations.md").read_text().rstrip())
+        return
     run_ablations(run_dir, episodes, objects, seed, workers)
     run = RunDir(run_dir, create=False)
     (run.path / "figures").mkdir(exist_ok=True)
@@ -186,17 +195,28 @@ def ablate(
 @app.command()
 def plot(
     run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
+    objects: str = typer.Option("test", help="Objects of the traced episode: test or train."),
 ) -> None:
-    """Draw all figures of the run into RUN_DIR/figures (records trace.npz first if missing)."""
+    """Draw all figures of the run into RUN_DIR/figures (records trace.npz first if missing;
+    for a neuromodulated run also modulator_trace.npz)."""
     from evodevo.grn.figures import plot_run
     from evodevo.grn.recording import TRACE_FILE, record_trace
     from evodevo.parallel import set_single_thread
+    from evodevo.runs import read_json
 
     set_single_thread()
     if not run_dir.is_dir():
         raise EvodevoError(f"run directory {str(run_dir)!r} does not exist")
+    if objects not in ("test", "train"):
+        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     if not (run_dir / TRACE_FILE).is_file() and (run_dir / "best_genome.npz").is_file():
-        record_trace(run_dir)
+        record_trace(run_dir, objects=objects)
+    saved = read_json(run_dir / "config.json") if (run_dir / "config.json").is_file() else {}
+    if saved.get("config", {}).get("controller") == "neuromodulated":
+        from evodevo.grn.neuromodulated import MODULATOR_TRACE_FILE, record_modulator_trace
+
+        if not (run_dir / MODULATOR_TRACE_FILE).is_file():
+            record_modulator_trace(run_dir, objects=objects)
     for p in plot_run(run_dir):
         typer.echo(str(p))
 

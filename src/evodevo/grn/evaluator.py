@@ -91,7 +91,13 @@ class EpisodeResults:
 
 
 def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) -> gym.Env[Any, Any]:
-    """``gymnasium.make`` after importing ``evodevo.envs`` for ``evodevo/`` ids."""
+    """``gymnasium.make`` after importing ``evodevo.envs`` for ``evodevo/`` ids.
+
+    ``test_objects=False`` is dropped (the Kuka env's default), so envs without held-out
+    objects can be made by the same calls.
+    """
+    if extra.get("test_objects") is False:
+        extra = {k: v for k, v in extra.items() if k != "test_objects"}
     if env_id.startswith("evodevo/"):
         try:
             importlib.import_module("evodevo.envs")
@@ -107,7 +113,7 @@ def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) ->
     except TypeError as exc:
         hint = (
             "; it has no held-out test objects: evaluate with --objects train"
-            if "test_objects" in extra
+            if extra.get("test_objects")
             else ""
         )
         raise EvodevoError(f"cannot make environment {env_id!r}: {exc}{hint}") from None
