@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, ModuleConfig
@@ -156,3 +158,29 @@ def test_retention_and_improvement_cases():
     assert math.isnan(retention(-10.0, 5.0))
     assert improvement(233.37, -417.17) == pytest.approx(155.94, abs=0.01)
     assert improvement(500.0, 491.0) == pytest.approx(1.83, abs=0.01)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    obs=st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+    rewards=st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=20),
+)
+def test_states_stay_in_unit_interval(obs, rewards):
+    mods = Neuromodulators(ModuleConfig(), obs_dim=3, seed=0)
+    x = np.asarray(obs, np.float32)
+    for r in rewards:
+        mods.step(x, r)
+        s = mods.states
+        assert np.all((s >= 0) & (s <= 1))
+    assert 0 < mods.n_task <= 1
+
+
+@given(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4))
+def test_retention_bounds(initial, final):
+    r = retention(initial, final)
+    if initial == final:
+        assert r == 1.0
+    elif initial > 0 and final >= 0:
+        assert r >= 0
+    elif initial < 0 and final < 0:
+        assert r > 0 and (r <= 1) == (final <= initial)

@@ -60,7 +60,8 @@ def novelty_decay(n_task: float, decay: float) -> float:
 
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-x))
+    """Logistic function; the clip keeps ``exp`` finite for huge rewards (same value)."""
+    return 1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))
 
 
 class Neuromodulators(nn.Module):
