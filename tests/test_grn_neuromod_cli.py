@@ -14,7 +14,10 @@ from test_grn_fakeenv import FAKE_ID
 from typer.testing import CliRunner
 
 from evodevo.cli import app
+from evodevo.config import replace
 from evodevo.errors import EvodevoError
+from evodevo.grn.config import GrnConfig
+from evodevo.grn.evolution import Hook, evolve_run
 from evodevo.grn.figures import plot_run
 from evodevo.grn.genome import load_arrays
 from evodevo.grn.neuromodulated import (
@@ -98,3 +101,30 @@ def plain_run(tmp_path):
     invoke("evolve", "--config", cfg, "--population", 2, "--generations", 1, "--episodes", 1,
            "--out", out, "--quiet")  # fmt: skip
     return out
+
+
+class _Interrupt(Exception):
+    pass
+
+
+class _StopAfterFirst(Hook):
+    def on_generation(self, evo, record):
+        raise _Interrupt
+
+
+def test_interrupted_neuromodulated_run_resumes_exactly(tmp_path):
+    cfg = GrnConfig(controller="neuromodulated")
+    cfg = replace(
+        cfg,
+        env=replace(cfg.env, id=FAKE_ID, kwargs={}),
+        evolution=replace(cfg.evolution, population=4, generations=3, early_stop=False),
+        evaluation=replace(cfg.evaluation, episodes=2),
+    )
+    whole = evolve_run(cfg, tmp_path / "whole", progress=False)
+    with pytest.raises(_Interrupt):
+        evolve_run(cfg, tmp_path / "cut", hooks=[_StopAfterFirst()], progress=False)
+    resumed = evolve_run(cfg, tmp_path / "cut", resume=True, progress=False)
+    assert resumed["fitness_history"] == whole["fitness_history"]
+    a, _ = load_arrays(tmp_path / "whole" / "best_genome.npz", NeuromodGrnGenome.KIND)
+    b, _ = load_arrays(tmp_path / "cut" / "best_genome.npz", NeuromodGrnGenome.KIND)
+    assert all(np.array_equal(a[k], b[k]) for k in a)
