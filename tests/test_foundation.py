@@ -154,3 +154,20 @@ def test_make_pool_rejects_unknown_backend():
 
     with pytest.raises(EvodevoError, match="unknown backend"):
         make_pool("dask", 2)
+
+
+def test_graceful_stop_turns_first_signal_into_a_flag():
+    import signal
+
+    from evodevo.signals import GracefulStop, StopRequested
+
+    before = signal.getsignal(signal.SIGTERM)
+    with GracefulStop() as stop:
+        stop.check("generation 1", "resume with --resume")  # nothing requested: no error
+        os.kill(os.getpid(), signal.SIGTERM)
+        assert stop.requested and stop.signal_name == "SIGTERM"
+        with pytest.raises(StopRequested, match="after generation 2; resume with --resume"):
+            stop.check("generation 2", "resume with --resume")
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGTERM)
+    assert signal.getsignal(signal.SIGTERM) is before

@@ -48,7 +48,11 @@ def set_single_thread() -> None:
 
 
 def worker_setup(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
-    """Process initializer: single thread, then the caller's initializer."""
+    """Process initializer: ignore SIGINT (the main process stops cleanly), single thread, then
+    the caller's initializer."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     set_single_thread()
     if initializer is not None:
         initializer(*initargs)
