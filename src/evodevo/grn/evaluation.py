@@ -11,6 +11,7 @@ uniform-random policies run on the same seeds in the same call. It writes
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -41,10 +42,23 @@ class LoadedRun:
     kind: str
 
 
+RUN_LOADERS: dict[str, str] = {"baseline": "evodevo.baselines.kuka_runner:load_run"}
+"""Loaders ``(run, saved_config) -> LoadedRun`` of other run kinds the same test applies to."""
+__all__ += ["RUN_LOADERS"]
+
+
 def load_run(path: str | Path) -> LoadedRun:
-    """Load ``config.json``, ``encoder.pt`` and ``best_genome.npz`` of a GRN run directory."""
+    """Load ``config.json``, ``encoder.pt`` and ``best_genome.npz`` of a GRN run directory.
+
+    A run of a kind in :data:`RUN_LOADERS` (e.g. a Kuka baseline) is loaded by its own loader,
+    with its policy in place of the genome, so it is tested by the same code.
+    """
     run = RunDir(path, create=False)
     saved = run.read_config()
+    if saved.get("kind") in RUN_LOADERS:
+        module, _, attr = RUN_LOADERS[str(saved["kind"])].partition(":")
+        loader = getattr(importlib.import_module(module), attr)
+        return loader(run, saved)  # type: ignore[no-any-return]
     if saved.get("kind") != "grn":
         raise EvodevoError(
             f"{str(run.path)!r} holds a {saved.get('kind')!r} run, not a GRN run (evodevo grn evolve)"

@@ -1,0 +1,9 @@
+"""Baselines of SPEC §4 on the Kuka grasping benchmark, and the thesis' Table 4.2.
+
+* :mod:`~evodevo.baselines.kuka_config` — the typed config (Table 4.1 defaults).
+* :mod:`~evodevo.baselines.sb3_kuka` — PPO and TD3 of Stable-Baselines3 on the image.
+* :mod:`~evodevo.baselines.neat_kuka` — NEAT of neat-python on the GRN's encoder features.
+* :mod:`~evodevo.baselines.policies` — trained baselines as policies of the GRN evaluator.
+* :mod:`~evodevo.baselines.kuka_runner` — run directories: train, resume, load for evaluation.
+* :mod:`~evodevo.baselines.table_4_2` — the comparison table (Markdown and CSV).
+"""

@@ -1,0 +1,359 @@
+"""NEAT of neat-python on the Kuka benchmark (SPEC §4, thesis Table 4.1).
+
+neat-python evolves the networks (128 encoder features → one tanh output per action);
+everything else is the GRN's: the fixed random encoder of the run seed (``encoder.pt``), the
+:class:`~evodevo.grn.evaluator.Evaluator` and its worker pool, the training episodes of each
+generation (common random numbers: every genome sees the same ones), and Eq. 4.6 as fitness.
+Training time is the evaluation time of the generations (neat-python's reproduction of 12
+genomes takes milliseconds), as for the GRN.
+
+The neat config file is written into the run (``neat.ini``) from :data:`NEAT_TEMPLATE` and the
+typed ``neat`` section, so unknown neat keys fail in neat-python and the run records what it used.
+After every generation :class:`RunReporter` (a neat-python reporter) writes a neat checkpoint,
+``neat_state.json``, ``history.csv``, ``learning_curve.csv``, ``best_genome.pkl`` and
+``summary.json``; ``resume`` restores the last generation both files agree on. neat-python keeps
+its random state in Python's ``random`` module (it is seeded through its ``seed`` argument, like
+SB3's ``seed=``, and saved and restored by its checkpoints).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from evodevo.baselines.kuka_config import KukaBaselineConfig
+from evodevo.baselines.policies import NeatNet, neat_config
+from evodevo.baselines.sb3_kuka import CURVE_FIELDS, summarise
+from evodevo.errors import EvodevoError
+from evodevo.grn.encoder import Encoder
+from evodevo.grn.evaluator import Evaluator
+from evodevo.grn.evolution import EPISODE_KEY, training_episodes
+from evodevo.grn.fitness import fitness_matrix
+from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
+
+__all__ = ["NEAT_TEMPLATE", "write_neat_config", "NeatState", "RunReporter", "train_neat"]
+
+NEAT_INI = "neat.ini"
+STATE_FILE = "neat_state.json"
+CKPT_PREFIX = "neat-checkpoint-"
+HISTORY_FIELDS = [
+    "generation",
+    "best_fitness",
+    "mean_fitness",
+    "best_success",
+    "mean_success",
+    "best_connections",
+    "episodes",
+    "env_steps",
+    "elapsed_s",
+]
+
+NEAT_TEMPLATE = """\
+[NEAT]
+fitness_criterion      = max
+fitness_threshold      = 1e9
+no_fitness_termination = True
+pop_size               = {population}
+reset_on_extinction    = True
+
+[DefaultGenome]
+num_inputs              = {num_inputs}
+num_outputs             = {num_outputs}
+num_hidden              = 0
+feed_forward            = True
+initial_connection      = {initial_connection}
+activation_default      = tanh
+activation_mutate_rate  = 0.0
+activation_options      = tanh
+aggregation_default     = sum
+aggregation_mutate_rate = 0.0
+aggregation_options     = sum
+bias_init_mean          = 0.0
+bias_init_stdev         = 1.0
+bias_max_value          = 30.0
+bias_min_value          = -30.0
+bias_mutate_power       = 0.5
+bias_mutate_rate        = 0.7
+bias_replace_rate       = 0.1
+response_init_mean      = 1.0
+response_init_stdev     = 0.0
+response_max_value      = 30.0
+response_min_value      = -30.0
+response_mutate_power   = 0.0
+response_mutate_rate    = 0.0
+response_replace_rate   = 0.0
+weight_init_mean        = 0.0
+weight_init_stdev       = 1.0
+weight_max_value        = 30.0
+weight_min_value        = -30.0
+weight_mutate_power     = {weight_mutate_power}
+weight_mutate_rate      = {weight_mutate_rate}
+weight_replace_rate     = 0.1
+enabled_default         = True
+enabled_mutate_rate     = 0.01
+compatibility_disjoint_coefficient = 1.0
+compatibility_weight_coefficient   = 0.5
+conn_add_prob           = {conn_add_prob}
+conn_delete_prob        = 0.3
+node_add_prob           = {node_add_prob}
+node_delete_prob        = 0.1
+
+[DefaultSpeciesSet]
+compatibility_threshold = {compatibility_threshold}
+
+[DefaultStagnation]
+species_fitness_func = max
+max_stagnation       = 20
+species_elitism      = 1
+
+[DefaultReproduction]
+elitism            = {elitism}
+survival_threshold = 0.3
+"""
+"""neat-python config of the Kuka NEAT baseline; ``{...}`` fields come from the typed config."""
+
+
+def write_neat_config(cfg: KukaBaselineConfig, n_actions: int, run: RunDir) -> str:
+    """Write ``neat.ini`` for ``cfg`` into ``run`` and return its path."""
+    n = cfg.neat
+    text = NEAT_TEMPLATE.format(
+        population=n.population,
+        num_inputs=128,
+        num_outputs=n_actions,
+        initial_connection=n.initial_connection,
+        weight_mutate_power=n.weight_mutate_power,
+        weight_mutate_rate=n.weight_mutate_rate,
+        conn_add_prob=n.conn_add_prob,
+        node_add_prob=n.node_add_prob,
+        compatibility_threshold=n.compatibility_threshold,
+        elitism=n.elitism,
+    )
+    path = run / NEAT_INI
+    atomic_write_text(path, text)
+    return str(path)
+
+
+@dataclass
+class NeatState:
+    """Bookkeeping of a NEAT run across generations (and resumes)."""
+
+    generation: int = 0
+    env_steps: int = 0
+    episodes: int = 0
+    train_s: float = 0.0
+    history: list[dict[str, Any]] = field(default_factory=list)
+    best: Any = None
+
+
+class RunReporter:
+    """neat-python reporter: after every generation, checkpoint and run-directory files."""
+
+    def __init__(self, run: RunDir, cfg: KukaBaselineConfig, state: NeatState, quiet: bool):
+        self.run = run
+        self.cfg = cfg
+        self.state = state
+        self.quiet = quiet
+
+    # neat-python's reporter hooks (BaseReporter interface)
+    def start_generation(self, generation: int) -> None:
+        """Unused hook."""
+
+    def post_evaluate(self, config: Any, population: Any, species: Any, best: Any) -> None:
+        """Unused hook."""
+
+    def post_reproduction(self, config: Any, population: Any, species: Any) -> None:
+        """Unused hook."""
+
+    def complete_extinction(self) -> None:
+        """Unused hook."""
+
+    def found_solution(self, config: Any, generation: int, best: Any) -> None:
+        """Unused hook."""
+
+    def species_stagnant(self, sid: int, species: Any) -> None:
+        """Unused hook."""
+
+    def info(self, msg: str) -> None:
+        """Unused hook."""
+
+    def end_generation(self, config: Any, population: Any, species_set: Any) -> None:
+        """Save the neat checkpoint of the next generation, then the state and outputs."""
+        import neat
+
+        nxt = self.state.generation
+        folder = self.run.checkpoints
+        with contextlib.redirect_stdout(io.StringIO()):  # neat-python prints the file name
+            neat.Checkpointer(None, None, str(folder / CKPT_PREFIX)).save_checkpoint(
+                config, population, species_set, nxt
+            )
+        write_json(
+            folder / STATE_FILE,
+            {
+                "generation": nxt,
+                "env_steps": self.state.env_steps,
+                "episodes": self.state.episodes,
+                "train_s": self.state.train_s,
+                "history": self.state.history,
+            },
+        )
+        for old in folder.glob(f"{CKPT_PREFIX}*"):  # keep this one and the one before
+            suffix = old.name[len(CKPT_PREFIX) :]
+            if suffix.isdigit() and int(suffix) < nxt - 1:
+                old.unlink(missing_ok=True)
+        self.write_outputs()
+        if not self.quiet:
+            h = self.state.history[-1]
+            print(
+                f"gen {h['generation'] + 1:>3} best F {h['best_fitness']:6.2f} "
+                f"best success {h['best_success']:.2f} steps {h['env_steps']} "
+                f"training {h['elapsed_s']:.0f}s",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def write_outputs(self) -> None:
+        """``history.csv``, ``learning_curve.csv``, ``best_genome.pkl``, ``summary.json``."""
+        self.run.write_csv("history.csv", self.state.history, HISTORY_FIELDS)
+        self.run.write_csv("learning_curve.csv", curve_rows(self.state.history), CURVE_FIELDS)
+        if self.state.best is not None:
+            self.state.best.save(self.run / "best_genome.pkl")
+        self.run.write_summary(neat_summary(self.cfg, self.state))
+
+
+def curve_rows(history: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Learning-curve rows (as the SB3 runs') from the per-generation history."""
+    return [
+        {
+            "env_steps": h["env_steps"],
+            "train_s": h["elapsed_s"],
+            "success": h["best_success"],
+            "mean_reward": float("nan"),
+            "episodes": h["episodes"],
+        }
+        for h in history
+    ]
+
+
+def neat_summary(cfg: KukaBaselineConfig, state: NeatState) -> dict[str, Any]:
+    """``summary.json`` of a NEAT run."""
+    out = summarise(cfg, state.env_steps, state.train_s, 0.0, curve_rows(state.history), "")
+    out["stopped_by"] = _stop_reason(cfg, state) or "running"
+    out["generations_run"] = state.generation
+    out["episodes_run"] = state.episodes
+    out["budget"]["generations"] = cfg.neat.generations
+    out["budget"]["population"] = cfg.neat.population
+    out["budget"]["episodes_per_evaluation"] = cfg.neat.episodes
+    return out
+
+
+def _stop_reason(cfg: KukaBaselineConfig, state: NeatState) -> str | None:
+    b = cfg.budget
+    if b.env_steps is not None and state.env_steps >= b.env_steps:
+        return "steps"
+    if b.minutes is not None and state.train_s >= b.minutes * 60.0:
+        return "time"
+    if b.env_steps is None and b.minutes is None and state.generation >= cfg.neat.generations:
+        return "generations"
+    return None
+
+
+def _restore(run: RunDir) -> tuple[Any, NeatState]:
+    import neat
+
+    folder = run.path / "checkpoints"
+    if not (folder / STATE_FILE).is_file():
+        raise EvodevoError(
+            f"--resume: {str(folder / STATE_FILE)!r} does not exist; start again without --resume"
+        )
+    saved = read_json(folder / STATE_FILE)
+    gen = int(saved["generation"])
+    ckpt = folder / f"{CKPT_PREFIX}{gen}"
+    if not ckpt.is_file():
+        raise EvodevoError(f"--resume: the neat checkpoint {str(ckpt)!r} is missing")
+    pop = neat.Checkpointer.restore_checkpoint(str(ckpt), neat_config(run / NEAT_INI))
+    state = NeatState(
+        generation=gen,
+        env_steps=int(saved["env_steps"]),
+        episodes=int(saved["episodes"]),
+        train_s=float(saved["train_s"]),
+        history=list(saved["history"]),
+    )
+    if (run / "best_genome.pkl").is_file():
+        state.best = NeatNet.load(run / "best_genome.pkl", run / NEAT_INI)
+    return pop, state
+
+
+def train_neat(
+    cfg: KukaBaselineConfig,
+    run: RunDir,
+    workers: int = 1,
+    resume: bool = False,
+    quiet: bool = False,
+) -> dict[str, Any]:
+    """Evolve NEAT networks per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict.
+
+    Budget: ``budget.env_steps`` and/or ``budget.minutes`` (checked after every generation, so a
+    run ends within one generation past it), else ``neat.generations``.
+    """
+    import neat
+
+    ecfg = cfg.evaluator_config()
+    if resume:
+        encoder = Encoder.load(run / "encoder.pt")
+    else:
+        encoder = Encoder.from_seed(cfg.seed)
+        encoder.save(run / "encoder.pt")
+    with Evaluator(ecfg, encoder, workers=workers) as ev:
+        if resume:
+            pop, state = _restore(run)
+            ini = str(run / NEAT_INI)
+        else:
+            ini = write_neat_config(cfg, ev.n_actions, run)
+            pop = neat.Population(neat_config(ini), seed=cfg.seed)
+            state = NeatState()
+        reporter = RunReporter(run, cfg, state, quiet)
+        pop.add_reporter(reporter)
+
+        def fitness(genomes: list[tuple[int, Any]], config: Any) -> None:
+            t0 = time.perf_counter()
+            episodes = training_episodes(
+                cfg.seed, EPISODE_KEY, state.generation, cfg.neat.episodes, cfg.neat.noisy_fraction
+            )
+            nets = [NeatNet.from_genome(g, ini) for _, g in genomes]
+            res = ev.evaluate(nets, episodes)
+            fit = fitness_matrix(res.reward, res.success)
+            for (_, g), f in zip(genomes, fit, strict=True):
+                g.fitness = float(f)
+            best = int(np.argmax(fit))
+            succ = res.success_rate
+            state.best = nets[best]
+            state.env_steps += res.env_steps
+            state.episodes += int(res.reward.size)
+            state.train_s += time.perf_counter() - t0
+            state.history.append(
+                {
+                    "generation": state.generation,
+                    "best_fitness": float(fit[best]),
+                    "mean_fitness": float(fit.mean()),
+                    "best_success": float(succ[best]),
+                    "mean_success": float(succ.mean()),
+                    "best_connections": sum(
+                        1 for c in genomes[best][1].connections.values() if c.enabled
+                    ),
+                    "episodes": state.episodes,
+                    "env_steps": state.env_steps,
+                    "elapsed_s": state.train_s,
+                }
+            )
+            state.generation += 1
+
+        while _stop_reason(cfg, state) is None:
+            pop.run(fitness, 1)
+        reporter.write_outputs()
+    return neat_summary(cfg, state)

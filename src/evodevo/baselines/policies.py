@@ -1,0 +1,207 @@
+"""Trained baselines as evaluator policies, so they are tested by the GRN's evaluate code path.
+
+The GRN :class:`~evodevo.grn.evaluator.Evaluator` runs any object with the ``Policy`` protocol
+of :mod:`evodevo.grn.controller` (``reset_state(genomes)``, vectorised ``step``). Here:
+
+* :class:`Sb3Policy` (controller ``"evodevo.baselines.policies:Sb3Policy"``) drives a saved
+  Stable-Baselines3 model; its "genome" is an :class:`Sb3Model` (algorithm and file), loaded once
+  per worker. It sets ``uses_image`` so the evaluator hands it the raw 48x48 images.
+* :class:`NeatPolicy` (controller ``"evodevo.baselines.policies:NeatPolicy"``) drives a
+  neat-python feed-forward network on the run's fixed encoder features (SPEC §4: 128-d → actions);
+  its genome is a :class:`NeatNet` (the pickled neat genome and the neat config file). On noisy
+  episodes every feature gets N(0, ``evaluation.visual_noise``²).
+
+The SB3 policy ignores the noisy flag (its input is the image, not features).
+
+Both are picklable references, so the evaluator's worker processes receive them like genomes.
+"""
+
+from __future__ import annotations
+
+import pickle
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evodevo.errors import CheckpointError
+
+__all__ = ["Sb3Model", "Sb3Policy", "NeatNet", "NeatPolicy", "SB3_ALGOS", "load_sb3"]
+
+SB3_ALGOS = ("ppo", "td3")
+"""The Stable-Baselines3 methods of SPEC §4."""
+
+
+def load_sb3(algo: str, path: str | Path, env: Any = None) -> Any:
+    """Load a saved SB3 model of ``algo`` ("ppo" or "td3"), with a clear error on a mismatch."""
+    from stable_baselines3 import PPO
+
+    from evodevo.baselines.sb3_kuka import Td3TwoRates
+
+    classes: dict[str, Any] = {"ppo": PPO, "td3": Td3TwoRates}
+    if algo not in classes:
+        raise CheckpointError(f"{algo!r} is not an SB3 baseline; choose one of {list(SB3_ALGOS)}")
+    p = Path(path)
+    if not p.is_file():
+        raise CheckpointError(f"{str(p)!r} does not exist; was the {algo} run trained?")
+    try:
+        return classes[algo].load(p, env=env, device="cpu")
+    except (KeyError, ValueError, TypeError, AttributeError, RuntimeError) as exc:
+        raise CheckpointError(
+            f"{str(p)!r} is not a saved {algo.upper()} model ({type(exc).__name__}: {exc}); "
+            "a run directory of another method was passed"
+        ) from None
+
+
+@dataclass(frozen=True)
+class Sb3Model:
+    """Reference to a saved SB3 model: which algorithm, which ``.zip``."""
+
+    algo: str
+    path: str
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """No arrays (the evaluator groups genomes by array shapes)."""
+        return {}
+
+
+class Sb3Policy:
+    """Deterministic actions of a saved SB3 model from the raw image (see module docstring)."""
+
+    uses_encoder = False
+    uses_image = True
+
+    def __init__(self, config: Any, n_actions: int) -> None:
+        self.n_actions = int(n_actions)
+        self._models: dict[Sb3Model, Any] = {}
+
+    def model(self, ref: Sb3Model) -> Any:
+        """The loaded model of ``ref`` (cached)."""
+        if ref not in self._models:
+            self._models[ref] = load_sb3(ref.algo, ref.path)
+        return self._models[ref]
+
+    def reset_state(self, genomes: Sequence[Sb3Model]) -> list[Any]:
+        return [self.model(g) for g in genomes]
+
+    def step(
+        self,
+        state: list[Any],
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        if features is None:
+            raise CheckpointError("Sb3Policy needs the images; the evaluator passed none")
+        out = np.zeros((len(idx), self.n_actions))
+        models = [state[i] for i in idx]
+        # one predict per distinct model (usually one): a batch of images in one forward pass
+        for model in {id(m): m for m in models}.values():
+            rows = [j for j, m in enumerate(models) if m is model]
+            actions, _ = model.predict(features[rows], deterministic=True)
+            out[rows] = np.asarray(actions, dtype=np.float64).reshape(len(rows), -1)
+        return out
+
+
+@dataclass(frozen=True)
+class NeatNet:
+    """A neat-python genome (pickled bytes) and the neat config file it was evolved with."""
+
+    genome: bytes
+    config_path: str
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """No arrays (the evaluator groups genomes by array shapes)."""
+        return {}
+
+    @classmethod
+    def from_genome(cls, genome: Any, config_path: str | Path) -> NeatNet:
+        """Wrap a live neat genome."""
+        return cls(pickle.dumps(genome), str(config_path))
+
+    @classmethod
+    def load(cls, path: str | Path, config_path: str | Path) -> NeatNet:
+        """Load ``best_genome.pkl`` of a NEAT run (written by :meth:`save`)."""
+        p = Path(path)
+        if not p.is_file():
+            raise CheckpointError(f"{str(p)!r} does not exist; was the NEAT run trained?")
+        data = p.read_bytes()
+        try:
+            genome = pickle.loads(data)
+        except (pickle.UnpicklingError, EOFError, AttributeError, ImportError) as exc:
+            raise CheckpointError(f"{str(p)!r} is not a pickled NEAT genome ({exc})") from None
+        if not hasattr(genome, "connections") or not hasattr(genome, "nodes"):
+            raise CheckpointError(f"{str(p)!r} holds a {type(genome).__name__}, not a NEAT genome")
+        return cls(data, str(config_path))
+
+    def save(self, path: str | Path) -> None:
+        """Atomically write the pickled genome."""
+        from evodevo.runs import atomic_write_bytes
+
+        atomic_write_bytes(path, self.genome)
+
+
+def neat_config(path: str | Path) -> Any:
+    """The neat-python ``Config`` of a neat config file."""
+    import neat
+
+    p = Path(path)
+    if not p.is_file():
+        raise CheckpointError(f"neat config {str(p)!r} does not exist")
+    return neat.Config(
+        neat.DefaultGenome,
+        neat.DefaultReproduction,
+        neat.DefaultSpeciesSet,
+        neat.DefaultStagnation,
+        str(p),
+    )
+
+
+class NeatPolicy:
+    """A NEAT feed-forward network on the 128 encoder features (see module docstring)."""
+
+    uses_encoder = True
+
+    def __init__(self, config: Any, n_actions: int) -> None:
+        self.n_actions = int(n_actions)
+        self.visual_noise = float(config.evaluation.visual_noise)
+        self._configs: dict[str, Any] = {}
+
+    def reset_state(self, genomes: Sequence[NeatNet]) -> list[Any]:
+        import neat
+
+        nets = []
+        for g in genomes:
+            if g.config_path not in self._configs:
+                self._configs[g.config_path] = neat_config(g.config_path)
+            nets.append(
+                neat.nn.FeedForwardNetwork.create(
+                    pickle.loads(g.genome), self._configs[g.config_path]
+                )
+            )
+        return nets
+
+    def step(
+        self,
+        state: list[Any],
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        if features is None:
+            raise CheckpointError("NeatPolicy needs encoder features; the run has no encoder")
+        feats = np.array(features, dtype=np.float64, copy=True)
+        for j, rng in enumerate(rngs):  # noisy episodes: N(0, visual_noise^2) on every feature
+            if noisy[j]:
+                feats[j] += rng.normal(0.0, self.visual_noise, feats.shape[1])
+        out = np.array([state[i].activate(feats[j].tolist()) for j, i in enumerate(idx)])
+        return np.clip(out.reshape(len(idx), self.n_actions), -1.0, 1.0)
+
+
+__all__ += ["neat_config"]

@@ -1,0 +1,431 @@
+"""PPO and TD3 of Stable-Baselines3 on the Kuka image (SPEC §4, thesis Table 4.1).
+
+Nothing here is an RL algorithm: SB3's PPO and TD3 learn, SB3's callbacks add the rest.
+
+* :class:`KukaCnn` — the Table 4.1 image encoder (Conv 3→16→32(→32), a linear layer), trained
+  with the policy (SB3 scales the uint8 image to [0, 1] and moves channels first).
+* :class:`Td3TwoRates` — SB3's TD3 with the thesis' two learning rates (actor 1e-4, critic 1e-3):
+  only the learning-rate update is overridden.
+* Callbacks: SB3's :class:`~stable_baselines3.common.callbacks.EvalCallback` (success on
+  training objects every ``budget.eval_every_steps``, timed so training time excludes it) and
+  :class:`~stable_baselines3.common.callbacks.CheckpointCallback` (model, and TD3's replay
+  buffer), :class:`ClockCallback` (training time of each checkpoint, older checkpoints pruned)
+  and :class:`BudgetCallback` (stops at the env-step or wall-clock budget).
+
+:func:`train_sb3` writes ``model.zip``, ``learning_curve.csv`` (env steps, training seconds,
+success), ``summary.json`` and ``checkpoints/``; with ``resume`` it continues from the last
+checkpoint.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+from stable_baselines3 import PPO, TD3
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    CallbackList,
+    CheckpointCallback,
+    EvalCallback,
+)
+from stable_baselines3.common.monitor import Monitor
+from stable_baselines3.common.noise import NormalActionNoise
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
+from torch import nn
+
+from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
+from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.grn.evaluator import make_env
+from evodevo.runs import RunDir, read_json, write_json
+from evodevo.seeding import derive
+
+__all__ = [
+    "KukaCnn",
+    "Td3TwoRates",
+    "TrainClock",
+    "BudgetCallback",
+    "TimedEvalCallback",
+    "ClockCallback",
+    "train_sb3",
+    "CURVE_FIELDS",
+]
+
+EVAL_ENV_KEY = 11
+"""Seed stream of the training-time success estimates (EvalCallback's env)."""
+CKPT_PREFIX = "rl_model"
+CLOCK_FILE = "clock.json"
+CURVE_FIELDS = ["env_steps", "train_s", "success", "mean_reward", "episodes"]
+_KERNELS = ((8, 4), (4, 2), (3, 1))
+_UNLIMITED_STEPS = 10**12
+
+
+class KukaCnn(BaseFeaturesExtractor):
+    """Table 4.1's image encoder: convs (kernels 8/4/3, strides 4/2/1) → ReLU → linear → ReLU.
+
+    Args:
+        observation_space: channel-first image space (SB3 transposes the env's HWC images).
+        channels: output channels of each conv (1 to 3 layers).
+        features_dim: size of the linear layer.
+    """
+
+    def __init__(
+        self, observation_space: gym.spaces.Box, channels: list[int], features_dim: int
+    ) -> None:
+        super().__init__(observation_space, features_dim)
+        layers: list[nn.Module] = []
+        cin = int(observation_space.shape[0])
+        for cout, (k, s) in zip(channels, _KERNELS, strict=False):
+            layers += [nn.Conv2d(cin, cout, k, stride=s), nn.ReLU()]
+            cin = cout
+        self.cnn = nn.Sequential(*layers, nn.Flatten())
+        with torch.no_grad():
+            n_flat = self.cnn(torch.zeros(1, *observation_space.shape)).shape[1]
+        self.linear = nn.Sequential(nn.Linear(n_flat, features_dim), nn.ReLU())
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        return self.linear(self.cnn(observations))  # type: ignore[no-any-return]
+
+
+class Td3TwoRates(TD3):
+    """SB3's TD3 with separate actor and critic learning rates (Table 4.1).
+
+    Args:
+        actor_lr: actor Adam learning rate.
+        critic_lr: critic Adam learning rate.
+        *args, **kwargs: those of :class:`stable_baselines3.TD3`.
+    """
+
+    def __init__(self, *args: Any, actor_lr: float = 1e-4, critic_lr: float = 1e-3, **kwargs: Any):
+        self.actor_lr = float(actor_lr)
+        self.critic_lr = float(critic_lr)
+        super().__init__(*args, **kwargs)
+
+    def _update_learning_rate(self, optimizers: Any) -> None:
+        self.logger.record("train/actor_lr", self.actor_lr)
+        self.logger.record("train/critic_lr", self.critic_lr)
+        for opt, lr in (
+            (self.actor.optimizer, self.actor_lr),
+            (self.critic.optimizer, self.critic_lr),
+        ):
+            for group in opt.param_groups:
+                group["lr"] = lr
+
+
+@dataclass
+class TrainClock:
+    """Training seconds (wall time minus the time of the success estimates), across resumes."""
+
+    offset_s: float = 0.0
+    eval_s: float = 0.0
+    start: float = 0.0
+
+    def begin(self) -> None:
+        self.start = time.perf_counter()
+
+    @property
+    def train_s(self) -> float:
+        return self.offset_s + (time.perf_counter() - self.start) - self.eval_s
+
+
+class BudgetCallback(BaseCallback):
+    """Stop training at ``max_steps`` env steps or ``max_s`` training seconds."""
+
+    def __init__(self, clock: TrainClock, max_steps: int | None, max_s: float | None) -> None:
+        super().__init__()
+        self.clock = clock
+        self.max_steps = max_steps
+        self.max_s = max_s
+        self.stopped_by = "steps"
+
+    def _on_step(self) -> bool:
+        if self.max_steps is not None and self.num_timesteps >= self.max_steps:
+            self.stopped_by = "steps"
+            return False
+        if self.max_s is not None and self.clock.train_s >= self.max_s:
+            self.stopped_by = "time"
+            return False
+        return True
+
+
+class TimedEvalCallback(EvalCallback):
+    """SB3's EvalCallback, timed (excluded from training time) and logged to a CSV row each time."""
+
+    def __init__(
+        self, eval_env: Any, clock: TrainClock, run: RunDir, quiet: bool, **kwargs: Any
+    ) -> None:
+        super().__init__(eval_env, **kwargs)
+        self.clock = clock
+        self.run = run
+        self.quiet = quiet
+        self.rows: list[dict[str, Any]] = []
+
+    def _on_step(self) -> bool:
+        if not (self.eval_freq > 0 and self.n_calls % self.eval_freq == 0):
+            return True
+        t0 = time.perf_counter()
+        out = super()._on_step()
+        self.clock.eval_s += time.perf_counter() - t0
+        success = float(np.mean(self._is_success_buffer)) if self._is_success_buffer else 0.0
+        row = {
+            "env_steps": int(self.num_timesteps),
+            "train_s": self.clock.train_s,
+            "success": success,
+            "mean_reward": float(self.last_mean_reward),
+            "episodes": int(self.n_eval_episodes),
+        }
+        self.rows.append(row)
+        self.run.write_csv("learning_curve.csv", self.rows, CURVE_FIELDS)
+        if not self.quiet:
+            print(
+                f"steps {row['env_steps']:>7} success {success:.2f} training {row['train_s']:.0f}s",
+                file=sys.stderr,
+                flush=True,
+            )
+        return out
+
+
+class ClockCallback(BaseCallback):
+    """Beside each SB3 checkpoint: its training time in ``clock.json``; older checkpoints removed."""
+
+    def __init__(self, clock: TrainClock, save_freq: int, folder: Path) -> None:
+        super().__init__()
+        self.clock = clock
+        self.save_freq = save_freq
+        self.folder = folder
+
+    def _on_step(self) -> bool:
+        if self.n_calls % self.save_freq == 0:
+            write_clock(self.folder, self.num_timesteps, self.clock)
+            prune_checkpoints(self.folder, keep=self.num_timesteps)
+        return True
+
+
+def write_clock(folder: Path, steps: int, clock: TrainClock) -> None:
+    """Record (steps → training and evaluation seconds) in ``clock.json``."""
+    path = folder / CLOCK_FILE
+    data = read_json(path) if path.is_file() else {}
+    data[str(int(steps))] = {"train_s": clock.train_s, "eval_s": clock.eval_s}
+    write_json(path, data)
+
+
+def checkpoint_steps(folder: Path) -> list[int]:
+    """Env steps of the model checkpoints in ``folder``, ascending."""
+    pat = re.compile(rf"^{CKPT_PREFIX}_(\d+)_steps\.zip$")
+    return sorted(int(m.group(1)) for p in folder.glob("*.zip") if (m := pat.match(p.name)))
+
+
+def prune_checkpoints(folder: Path, keep: int) -> None:
+    """Delete the model and replay-buffer checkpoints of every step count but ``keep``."""
+    for steps in checkpoint_steps(folder):
+        if steps != keep:
+            for name in (
+                f"{CKPT_PREFIX}_{steps}_steps.zip",
+                f"{CKPT_PREFIX}_replay_buffer_{steps}_steps.pkl",
+            ):
+                (folder / name).unlink(missing_ok=True)
+
+
+def _vec_env(cfg: KukaBaselineConfig) -> VecTransposeImage:
+    env = make_env(cfg.env.id, cfg.env.kwargs, test_objects=False)
+    return VecTransposeImage(DummyVecEnv([lambda: Monitor(env)]))
+
+
+def _policy_kwargs(cnn: CnnConfig, net_arch: list[int]) -> dict[str, Any]:
+    return {
+        "features_extractor_class": KukaCnn,
+        "features_extractor_kwargs": {
+            "channels": list(cnn.channels),
+            "features_dim": cnn.features_dim,
+        },
+        "net_arch": list(net_arch),
+    }
+
+
+def build_model(cfg: KukaBaselineConfig, env: Any) -> Any:
+    """A fresh PPO or TD3 model for ``cfg`` (seeded by SB3's ``seed=``)."""
+    if cfg.method == "ppo":
+        p = cfg.ppo
+        return PPO(
+            "CnnPolicy",
+            env,
+            learning_rate=p.learning_rate,
+            n_steps=p.n_steps,
+            batch_size=p.batch_size,
+            n_epochs=p.n_epochs,
+            gamma=p.gamma,
+            gae_lambda=p.gae_lambda,
+            clip_range=p.clip_range,
+            ent_coef=p.ent_coef,
+            policy_kwargs=_policy_kwargs(p.cnn, p.net_arch),
+            seed=cfg.seed,
+            device="cpu",
+            verbose=0,
+        )
+    if cfg.method == "td3":
+        t = cfg.td3
+        n_act = int(env.action_space.shape[0])
+        return Td3TwoRates(
+            "CnnPolicy",
+            env,
+            actor_lr=t.actor_lr,
+            critic_lr=t.critic_lr,
+            learning_rate=t.critic_lr,
+            buffer_size=t.buffer_size,
+            learning_starts=t.learning_starts,
+            batch_size=t.batch_size,
+            tau=t.tau,
+            gamma=t.gamma,
+            train_freq=t.train_freq,
+            gradient_steps=t.gradient_steps,
+            action_noise=NormalActionNoise(np.zeros(n_act), t.action_noise * np.ones(n_act)),
+            optimize_memory_usage=False,
+            policy_kwargs=_policy_kwargs(t.cnn, t.net_arch),
+            seed=cfg.seed,
+            device="cpu",
+            verbose=0,
+        )
+    raise EvodevoError(f"method {cfg.method!r} is not an SB3 baseline; use ppo or td3")
+
+
+def _resume_state(
+    run: RunDir, cfg: KukaBaselineConfig, env: Any
+) -> tuple[Any, TrainClock, list[dict[str, Any]]]:
+    from evodevo.baselines.policies import load_sb3
+
+    folder = run.path / "checkpoints"
+    steps = checkpoint_steps(folder) if folder.is_dir() else []
+    if not steps:
+        raise EvodevoError(
+            f"--resume: {str(folder)!r} holds no checkpoint yet; start the run again without --resume"
+        )
+    last = steps[-1]
+    model = load_sb3(cfg.method, folder / f"{CKPT_PREFIX}_{last}_steps.zip", env=env)
+    buffer = folder / f"{CKPT_PREFIX}_replay_buffer_{last}_steps.pkl"
+    if cfg.method == "td3":
+        if not buffer.is_file():
+            raise CheckpointError(f"--resume: the replay buffer {str(buffer)!r} is missing")
+        model.load_replay_buffer(buffer)
+    clocks = read_json(folder / CLOCK_FILE) if (folder / CLOCK_FILE).is_file() else {}
+    known = [int(k) for k in clocks if int(k) <= last]
+    entry = clocks[str(max(known))] if known else {"train_s": 0.0, "eval_s": 0.0}
+    clock = TrainClock(offset_s=float(entry["train_s"]))
+    rows: list[dict[str, Any]] = []
+    if (run.path / "learning_curve.csv").is_file():
+        rows = [
+            {
+                k: float(v) if k in ("train_s", "success", "mean_reward") else int(float(v))
+                for k, v in r.items()
+            }
+            for r in run.read_csv("learning_curve.csv")
+            if int(float(r["env_steps"])) <= last
+        ]
+    return model, clock, rows
+
+
+def train_sb3(
+    cfg: KukaBaselineConfig, run: RunDir, resume: bool = False, quiet: bool = False
+) -> dict[str, Any]:
+    """Train PPO or TD3 per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict."""
+    b = cfg.budget
+    max_steps = (
+        b.env_steps if b.env_steps is not None else (None if b.minutes else b.default_env_steps)
+    )
+    max_s = b.minutes * 60.0 if b.minutes is not None else None
+    env = _vec_env(cfg)
+    eval_env = _vec_env(cfg)
+    eval_env.seed(derive(cfg.seed, EVAL_ENV_KEY))
+    folder = run.checkpoints
+    try:
+        if resume:
+            model, clock, rows = _resume_state(run, cfg, env)
+        else:
+            model, clock, rows = build_model(cfg, env), TrainClock(), []
+        done_steps = int(model.num_timesteps)
+        evaluator = TimedEvalCallback(
+            eval_env,
+            clock,
+            run,
+            quiet,
+            n_eval_episodes=b.eval_episodes,
+            eval_freq=b.eval_every_steps,
+            deterministic=True,
+            verbose=0,
+            warn=False,
+        )
+        evaluator.rows = rows
+        budget = BudgetCallback(clock, max_steps, max_s)
+        callbacks = CallbackList(
+            [
+                CheckpointCallback(
+                    b.checkpoint_every_steps,
+                    str(folder),
+                    name_prefix=CKPT_PREFIX,
+                    save_replay_buffer=cfg.method == "td3",
+                ),
+                ClockCallback(clock, b.checkpoint_every_steps, folder),
+                evaluator,
+                budget,
+            ]
+        )
+        remaining = (max_steps - done_steps) if max_steps is not None else _UNLIMITED_STEPS
+        clock.begin()
+        if remaining > 0 and (max_s is None or clock.train_s < max_s):
+            model.learn(remaining, callback=callbacks, reset_num_timesteps=not resume)
+        train_s = clock.train_s
+        model.save(run / "model.zip")
+        write_clock(folder, model.num_timesteps, clock)
+    finally:
+        env.close()
+        eval_env.close()
+    summary = summarise(
+        cfg, int(model.num_timesteps), train_s, clock.eval_s, evaluator.rows, budget.stopped_by
+    )
+    run.write_summary(summary)
+    return summary
+
+
+def first_reach(rows: list[dict[str, Any]], target: float) -> tuple[float | None, int | None]:
+    """Training seconds and env steps at which ``success`` first reached ``target``."""
+    for r in rows:
+        if float(r["success"]) >= target:
+            return float(r["train_s"]), int(r["env_steps"])
+    return None, None
+
+
+def summarise(
+    cfg: KukaBaselineConfig,
+    env_steps: int,
+    train_s: float,
+    eval_s: float,
+    rows: list[dict[str, Any]],
+    stopped_by: str,
+) -> dict[str, Any]:
+    """The ``summary.json`` of a baseline run (shared by every method)."""
+    from evodevo.runs import machine_info
+
+    t_s, t_steps = first_reach(rows, cfg.budget.target_success)
+    return {
+        "kind": "baseline_kuka",
+        "method": cfg.method,
+        "seed": cfg.seed,
+        "env_steps": int(env_steps),
+        "wall_s": float(train_s),
+        "eval_wall_s": float(eval_s),
+        "stopped_by": stopped_by,
+        "target_success": cfg.budget.target_success,
+        "time_to_target_s": t_s,
+        "steps_to_target": t_steps,
+        "success_history": [float(r["success"]) for r in rows],
+        "best_training_success": max((float(r["success"]) for r in rows), default=None),
+        "budget": {"env_steps": cfg.budget.env_steps, "minutes": cfg.budget.minutes},
+        "machine": machine_info(),
+    }

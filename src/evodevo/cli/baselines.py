@@ -1,0 +1,148 @@
+"""``evodevo baselines``: the Kuka grasping baselines of SPEC §4 (PPO, TD3, NEAT, random, zero).
+
+``evodevo baselines kuka --method M --out DIR`` trains (or, for zero/random, records) one
+baseline into a run directory laid out like a GRN run's; ``evodevo baselines evaluate DIR`` tests
+it with the GRN's evaluate code (the same fixed test seeds, the trivial policies beside it).
+User errors raise :class:`~evodevo.errors.EvodevoError`, printed by the top-level CLI as one line.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from evodevo.errors import EvodevoError
+
+__all__ = ["app"]
+
+app = typer.Typer(
+    help="Baselines (SPEC §4): PPO, TD3 (Stable-Baselines3), NEAT (neat-python), random, zero.",
+    no_args_is_help=True,
+)
+
+
+def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in extra.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def _budget_from(path: Path, scale: float) -> int:
+    """Env steps of a finished run (``summary.json``: ``env_steps``) times ``scale``."""
+    from evodevo.runs import read_json
+
+    summary = read_json(path / "summary.json")
+    steps = summary.get("env_steps")
+    if not isinstance(steps, int) or steps <= 0:
+        raise EvodevoError(f"--budget-from {str(path)!r}: its summary.json records no env_steps")
+    return max(1, int(round(steps * scale)))
+
+
+@app.command()
+def kuka(
+    method: str = typer.Option(..., "--method", help="ppo | td3 | neat | random | zero."),
+    out: Path = typer.Option(..., "--out", help="Run directory (created)."),
+    budget_steps: int | None = typer.Option(
+        None, "--budget-steps", help="Training env steps [PPO/TD3 13500; NEAT 15 generations]."
+    ),
+    budget_minutes: float | None = typer.Option(
+        None, "--budget-minutes", help="Training wall-clock minutes (with or instead of steps)."
+    ),
+    budget_from: Path | None = typer.Option(
+        None, "--budget-from", help="Use the env steps of this run (e.g. a `grn evolve` run)."
+    ),
+    budget_scale: float = typer.Option(1.0, help="Multiply the --budget-from steps (e.g. 5)."),
+    seed: int | None = typer.Option(None, "--seed", help="Run seed [0]."),
+    config: Path | None = typer.Option(
+        None, "--config", help="YAML config (configs/baselines_kuka.yaml)."
+    ),
+    workers: int = typer.Option(1, help="Evaluator worker processes (NEAT)."),
+    resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress lines."),
+) -> None:
+    """Train one Kuka baseline into OUT (config.json, summary.json, learning_curve.csv, model)."""
+    from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
+    from evodevo.baselines.kuka_runner import run_baseline
+    from evodevo.config import load_config
+    from evodevo.parallel import set_single_thread
+    from evodevo.runs import read_json
+
+    set_single_thread()
+    if method not in METHODS:
+        raise EvodevoError(f"--method {method!r} is not known; choose one of {', '.join(METHODS)}")
+    if budget_steps is not None and budget_steps <= 0:
+        raise EvodevoError(f"--budget-steps {budget_steps} must be > 0")
+    if budget_minutes is not None and budget_minutes <= 0:
+        raise EvodevoError(f"--budget-minutes {budget_minutes} must be > 0")
+    if budget_scale <= 0:
+        raise EvodevoError(f"--budget-scale {budget_scale} must be > 0")
+    if budget_from is not None:
+        if budget_steps is not None:
+            raise EvodevoError("--budget-from and --budget-steps contradict each other; give one")
+        budget_steps = _budget_from(budget_from, budget_scale)
+    if workers < 1:
+        raise EvodevoError(f"--workers {workers} must be >= 1")
+    ov: dict[str, Any] = {"method": method}
+    if seed is not None:
+        ov["seed"] = seed
+    if budget_steps is not None:
+        ov.setdefault("budget", {})["env_steps"] = budget_steps
+    if budget_minutes is not None:
+        ov.setdefault("budget", {})["minutes"] = budget_minutes
+    if resume and config is None and (out / "config.json").is_file():
+        saved = read_json(out / "config.json")
+        if saved.get("kind") != "baseline":
+            raise EvodevoError(
+                f"--resume: {str(out)!r} holds a {saved.get('kind')!r} run, not a baseline run"
+            )
+        cfg = load_config(KukaBaselineConfig, None, _merge(saved.get("config", {}), ov))
+    else:
+        cfg = load_config(KukaBaselineConfig, config, ov)
+    summary = run_baseline(cfg, out, workers=workers, resume=resume, quiet=quiet)
+    reach = summary.get("time_to_target_s")
+    typer.echo(
+        f"{cfg.method}: {summary['env_steps']} env steps, {summary['wall_s']:.0f} s training"
+        f" (stopped by {summary['stopped_by']}); target {cfg.budget.target_success:.2f} "
+        + (f"reached after {reach:.0f} s" if reach is not None else "not reached")
+        + f"; run in {out}"
+    )
+
+
+@app.command()
+def evaluate(
+    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo baselines kuka`."),
+    episodes: int | None = typer.Option(None, help="Test episodes [40]."),
+    objects: str = typer.Option("test", help="test (held-out objects) or train."),
+    noise: float = typer.Option(0.0, help="Visual-feature noise std (NEAT only)."),
+    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+    workers: int = typer.Option(1, help="Worker processes."),
+    baselines: bool = typer.Option(
+        True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
+) -> None:
+    """Test a baseline on the fixed test seeds with the GRN's evaluate code (SPEC §2.5, §4)."""
+    from evodevo.baselines.kuka_runner import read_baseline_config
+    from evodevo.grn.evaluation import evaluate_run
+    from evodevo.parallel import set_single_thread
+    from evodevo.runs import RunDir
+
+    set_single_thread()
+    read_baseline_config(RunDir(run_dir, create=False))  # a clear error for another kind of run
+    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines)
+    if as_json:
+        typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
+        return
+    typer.echo(
+        f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']}, "
+        f"noise {noise:g}"
+    )
+    for name, r in [(res["controller"], res), *res["baselines"].items()]:
+        typer.echo(
+            f"  {name:<8} {100 * r['success_rate']:5.1f} % "
+            f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] ({r['successes']} successes)"
+        )

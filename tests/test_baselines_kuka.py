@@ -1,0 +1,257 @@
+"""`evodevo baselines kuka` / `evaluate` at tiny budgets on the real Kuka env (SPEC §4)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+from typer.testing import CliRunner
+
+from evodevo.cli.baselines import app
+from evodevo.errors import EvodevoError
+
+pytest.importorskip("pybullet")
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("neat")
+
+runner = CliRunner()
+
+
+class Killed(Exception):
+    """Stands in for SIGKILL mid-run (click turns KeyboardInterrupt into an exit)."""
+
+TINY = """\
+budget:
+  eval_every_steps: 8
+  eval_episodes: 1
+  checkpoint_every_steps: 8
+ppo:
+  n_steps: 8
+  batch_size: 8
+  n_epochs: 1
+td3:
+  buffer_size: 200
+  batch_size: 8
+  learning_starts: 4
+neat:
+  population: 2
+  episodes: 1
+  elitism: 1
+evaluation:
+  lockstep: 2
+"""
+
+
+def invoke(*args: object):
+    res = runner.invoke(app, [str(a) for a in args])
+    if res.exception is not None and not isinstance(res.exception, SystemExit):
+        raise res.exception
+    assert res.exit_code == 0, res.output
+    return res
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    p = tmp_path / "tiny.yaml"
+    p.write_text(TINY)
+    return p
+
+
+def _summary(out):
+    return json.loads((out / "summary.json").read_text())
+
+
+@pytest.mark.parametrize("method", ["ppo", "td3"])
+def test_sb3_baseline_trains_to_the_exact_step_budget_and_is_evaluable(tmp_path, tiny, method):
+    out = tmp_path / method
+    invoke(
+        "kuka",
+        "--method",
+        method,
+        "--budget-steps",
+        16,
+        "--seed",
+        1,
+        "--config",
+        tiny,
+        "--out",
+        out,
+        "--quiet",
+    )
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["kind"] == "baseline" and saved["config"]["method"] == method
+    s = _summary(out)
+    assert s["env_steps"] == 16 and s["stopped_by"] == "steps" and s["wall_s"] > 0
+    curve = (out / "learning_curve.csv").read_text().splitlines()
+    assert [int(r.split(",")[0]) for r in curve[1:]] == [8, 16]
+    assert s["success_history"] == [float(r.split(",")[2]) for r in curve[1:]]
+    assert (out / "model.zip").is_file()
+    # only the last checkpoint is kept (TD3: with its replay buffer)
+    zips = sorted(p.name for p in (out / "checkpoints").glob("*.zip"))
+    assert zips == ["rl_model_16_steps.zip"]
+    assert (out / "checkpoints" / "rl_model_replay_buffer_16_steps.pkl").is_file() == (
+        method == "td3"
+    )
+    res = invoke("evaluate", out, "--episodes", 1, "--no-baselines", "--json")
+    result = json.loads(res.output.strip().splitlines()[-1])
+    assert result["controller"] == method and result["episodes"] == 1
+    assert result["successes"] in (0, 1) and (out / "eval_test_0.json").is_file()
+
+
+def test_sb3_policy_acts_like_the_saved_model(tmp_path, tiny):
+    """The evaluator's policy returns the model's own deterministic actions, batched."""
+    import numpy as np
+
+    from evodevo.baselines.kuka_config import KukaBaselineConfig
+    from evodevo.baselines.policies import Sb3Model, Sb3Policy, load_sb3
+
+    out = tmp_path / "ppo"
+    invoke(
+        "kuka", "--method", "ppo", "--budget-steps", 8, "--config", tiny, "--out", out, "--quiet"
+    )
+    model = load_sb3("ppo", out / "model.zip")
+    imgs = np.random.default_rng(0).integers(0, 256, (3, 48, 48, 3), dtype=np.uint8)
+    policy = Sb3Policy(KukaBaselineConfig().evaluator_config(), 3)
+    state = policy.reset_state([Sb3Model("ppo", str(out / "model.zip"))] * 3)
+    got = policy.step(state, np.arange(3), imgs, np.zeros((3, 4)), [], np.zeros(3, bool))
+    want = np.stack([model.predict(im, deterministic=True)[0] for im in imgs])
+    np.testing.assert_allclose(got, want, atol=1e-6)
+    assert np.all(np.abs(got) <= 1.0)
+
+
+def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
+    out = tmp_path / "neat"
+    invoke(
+        "kuka", "--method", "neat", "--config", tiny, "--out", out, "--quiet", "--budget-steps", 1
+    )
+    s = _summary(out)
+    # one generation of 2 genomes x 1 episode, then the step budget is spent
+    assert s["generations_run"] == 1 and s["episodes_run"] == 2 and s["stopped_by"] == "steps"
+    assert 2 <= s["env_steps"] <= 16
+    for name in ("encoder.pt", "neat.ini", "best_genome.pkl", "history.csv"):
+        assert (out / name).is_file(), name
+    assert "pop_size               = 2" in (out / "neat.ini").read_text()
+    assert "weight_mutate_rate      = 0.8" in (out / "neat.ini").read_text()
+    res = invoke("evaluate", out, "--episodes", 1, "--json")
+    result = json.loads(res.output.strip().splitlines()[-1])
+    assert result["controller"] == "neat" and set(result["baselines"]) == {"zero", "random"}
+
+
+@pytest.mark.parametrize("method", ["zero", "random"])
+def test_trivial_baselines_need_no_training_and_match_the_evaluators_own(tmp_path, method):
+    out = tmp_path / method
+    invoke("kuka", "--method", method, "--out", out, "--quiet")
+    assert _summary(out)["env_steps"] == 0
+    res = invoke("evaluate", out, "--episodes", 2, "--json")
+    result = json.loads(res.output.strip().splitlines()[-1])
+    # the run directory's policy is the very trivial policy measured beside it, same seeds
+    assert result["successes"] == result["baselines"][method]["successes"]
+
+
+def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeypatch):
+    from evodevo.baselines import sb3_kuka
+
+    out = tmp_path / "ppo"
+    original = sb3_kuka.BudgetCallback._on_step
+
+    def killed_at_20(self):
+        if self.num_timesteps == 20:
+            raise Killed
+        return original(self)
+
+    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", killed_at_20)
+    with pytest.raises(Killed):
+        runner.invoke(
+            app,
+            [
+                "kuka",
+                "--method",
+                "ppo",
+                "--budget-steps",
+                "24",
+                "--config",
+                str(tiny),
+                "--out",
+                str(out),
+                "--quiet",
+            ],
+            catch_exceptions=False,
+        )
+    assert not (out / "summary.json").exists()
+    assert [p.name for p in (out / "checkpoints").glob("*.zip")] == ["rl_model_16_steps.zip"]
+    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", original)
+    # a fresh start into the same folder is refused
+    with pytest.raises(EvodevoError, match="--resume"):
+        invoke("kuka", "--method", "ppo", "--budget-steps", 24, "--config", tiny, "--out", out)
+    invoke("kuka", "--method", "ppo", "--out", out, "--resume", "--quiet")
+    s = _summary(out)
+    assert s["env_steps"] == 24
+    curve = (out / "learning_curve.csv").read_text().splitlines()[1:]
+    assert [int(r.split(",")[0]) for r in curve] == [8, 16, 24]
+    clock = json.loads((out / "checkpoints" / "clock.json").read_text())
+    assert clock["16"]["train_s"] <= clock["24"]["train_s"]
+
+
+def test_killed_neat_run_resumes_at_its_next_generation(tmp_path, tiny, monkeypatch):
+    from evodevo.baselines import neat_kuka
+
+    out = tmp_path / "neat"
+    cfg = tmp_path / "gen2.yaml"
+    cfg.write_text(TINY.replace("  elitism: 1\n", "  elitism: 1\n  generations: 2\n"))
+    args = ["kuka", "--method", "neat", "--config", str(cfg), "--out", str(out), "--quiet"]
+    original = neat_kuka.RunReporter.end_generation
+
+    def killed_after_first(self, config, population, species_set):
+        original(self, config, population, species_set)
+        raise Killed
+
+    monkeypatch.setattr(neat_kuka.RunReporter, "end_generation", killed_after_first)
+    with pytest.raises(Killed):
+        runner.invoke(app, args, catch_exceptions=False)
+    monkeypatch.setattr(neat_kuka.RunReporter, "end_generation", original)
+    assert json.loads((out / "checkpoints" / "neat_state.json").read_text())["generation"] == 1
+    invoke("kuka", "--method", "neat", "--out", out, "--resume", "--quiet")
+    s = _summary(out)
+    assert s["generations_run"] == 2 and s["episodes_run"] == 4
+    hist = (out / "history.csv").read_text().splitlines()[1:]
+    assert [int(r.split(",")[0]) for r in hist] == [0, 1]
+
+
+def test_bad_input_gives_clear_errors(tmp_path, tiny):
+    with pytest.raises(EvodevoError, match="--method 'sac' is not known"):
+        invoke("kuka", "--method", "sac", "--out", tmp_path / "x")
+    with pytest.raises(EvodevoError, match="--budget-steps 0 must be > 0"):
+        invoke("kuka", "--method", "ppo", "--budget-steps", 0, "--out", tmp_path / "x")
+    with pytest.raises(EvodevoError, match="--budget-minutes -1.0 must be > 0"):
+        invoke("kuka", "--method", "td3", "--budget-minutes", -1, "--out", tmp_path / "x")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("ppo:\n  clip: 0.2\n")
+    with pytest.raises(EvodevoError, match="unknown config key ppo.clip"):
+        invoke("kuka", "--method", "ppo", "--config", bad, "--out", tmp_path / "x")
+    # a GRN run passed to the baseline evaluator
+    grn = tmp_path / "grn"
+    grn.mkdir()
+    (grn / "config.json").write_text(json.dumps({"kind": "grn", "config": {}}))
+    with pytest.raises(EvodevoError, match="holds a 'grn' run, not a Kuka baseline run"):
+        invoke("evaluate", grn)
+    with pytest.raises(EvodevoError, match="not a baseline run"):
+        invoke("kuka", "--method", "ppo", "--out", grn, "--resume")
+
+
+def test_a_model_of_another_method_is_refused_by_the_evaluator(tmp_path, tiny):
+    td3 = tmp_path / "td3"
+    invoke(
+        "kuka", "--method", "td3", "--budget-steps", 8, "--config", tiny, "--out", td3, "--quiet"
+    )
+    ppo = tmp_path / "ppo"
+    invoke(
+        "kuka", "--method", "ppo", "--out", ppo, "--config", tiny, "--budget-steps", 8, "--quiet"
+    )
+    shutil.copy(td3 / "model.zip", ppo / "model.zip")
+    with pytest.raises(EvodevoError, match="is not a saved PPO model"):
+        invoke("evaluate", ppo, "--episodes", 1)
+    from evodevo.grn.evaluation import evaluate_run
+
+    with pytest.raises(EvodevoError, match="is not a saved PPO model"):
+        evaluate_run(ppo, episodes=1)
