@@ -123,6 +123,9 @@ def evaluate(
     baselines: bool = typer.Option(
         True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
     ),
+    baselines_from: Path | None = typer.Option(
+        None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
 ) -> None:
     """Test a baseline on the fixed test seeds with the GRN's evaluate code (SPEC §2.5, §4)."""
@@ -133,7 +136,7 @@ def evaluate(
 
     set_single_thread()
     read_baseline_config(RunDir(run_dir, create=False))  # a clear error for another kind of run
-    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines)
+    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines, baselines_from)
     if as_json:
         typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
         return
