@@ -54,3 +54,9 @@ def test_each_method_evaluates_with_the_grn_test_seeds(method):
 def test_bad_values_name_the_key(overrides, message):
     with pytest.raises(ConfigError, match=message):
         load_config(KukaBaselineConfig, None, overrides)
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "configs").glob("baselines_kuka*.yaml")))
+def test_every_shipped_baseline_config_loads(path):
+    cfg = load_config(KukaBaselineConfig, path)
+    assert cfg.ppo.gamma == 0.993 and cfg.td3.actor_lr == 1e-4  # Table 4.1 kept in every variant
