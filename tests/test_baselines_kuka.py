@@ -21,6 +21,7 @@ runner = CliRunner()
 class Killed(Exception):
     """Stands in for SIGKILL mid-run (click turns KeyboardInterrupt into an exit)."""
 
+
 TINY = """\
 budget:
   eval_every_steps: 8
@@ -97,6 +98,25 @@ def test_sb3_baseline_trains_to_the_exact_step_budget_and_is_evaluable(tmp_path,
     result = json.loads(res.output.strip().splitlines()[-1])
     assert result["controller"] == method and result["episodes"] == 1
     assert result["successes"] in (0, 1) and (out / "eval_test_0.json").is_file()
+
+
+def test_a_wall_clock_budget_stops_training_by_time(tmp_path, tiny):
+    out = tmp_path / "ppo"
+    invoke(
+        "kuka",
+        "--method",
+        "ppo",
+        "--budget-minutes",
+        0.001,
+        "--config",
+        tiny,
+        "--out",
+        out,
+        "--quiet",
+    )
+    s = _summary(out)
+    assert s["stopped_by"] == "time" and s["budget"] == {"env_steps": None, "minutes": 0.001}
+    assert 1 <= s["env_steps"] < 16 and s["wall_s"] >= 0.06
 
 
 def test_sb3_policy_acts_like_the_saved_model(tmp_path, tiny):
