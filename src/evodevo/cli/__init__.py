@@ -25,10 +25,12 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    from evodevo.cli import biarm, grn, reference, reproduce
+    from evodevo.cli import baselines, biarm, compare, grn, reference, reproduce
 
     app.add_typer(biarm.app, name="biarm")
     app.add_typer(grn.app, name="grn")
+    app.add_typer(baselines.app, name="baselines")
+    app.add_typer(compare.app, name="compare")
     app.command("reproduce")(reproduce.reproduce)
     app.add_typer(reference.app, name="reference")
 
