@@ -1,7 +1,7 @@
 """BIARM vs PNN time per training step through the four-task sequence (SPEC §1.7, Table 3.3).
 
-All agents run in this one process, interleaved task by task (the order alternates between
-tasks so that machine load drifts hit every agent alike), each for the same fixed number of
+All agents run in this one process, interleaved episode by episode (the order alternates,
+so that load drifts on a shared machine hit every agent alike), each for the same fixed number of
 environment steps per task with one gradient step per environment step after
 ``learning_starts``. Time is process CPU time (robust to other load on a shared machine;
 ``ratio_wall`` gives the wall-clock ratio too); per-step means over all steps of all tasks. The last line of ``--json`` output is
@@ -26,7 +26,7 @@ def measure(steps: int, rounds: int = 1, learning: str = "fixed") -> dict[str, A
     from evodevo.neuromod.agent import BiarmAgent
     from evodevo.neuromod.config import BiarmConfig, ModuleConfig, NetworkConfig
     from evodevo.neuromod.tasks import resolve_tasks
-    from evodevo.neuromod.trainer import train_task
+    from evodevo.neuromod.trainer import TaskRunner, train_task
     from evodevo.neuromod.variants import get_variant
 
     base = BiarmConfig()
@@ -51,14 +51,25 @@ def measure(steps: int, rounds: int = 1, learning: str = "fixed") -> dict[str, A
             k: BiarmAgent(c, get_variant(v), d_max, seed=rnd) for k, (c, v) in configs.items()
         }
         for i, spec in enumerate(specs):
-            order = list(agents) if (i + rnd) % 2 == 0 else list(reversed(agents))
-            for k in order:
-                w0, t0 = time.perf_counter(), time.process_time()
-                train_task(agents[k], spec, i, rnd, 0, None, None, max_env_steps=steps)
-                dt = time.process_time() - t0
-                walls[k] += time.perf_counter() - w0
-                totals[k] += dt
-                per_task[k][i] += dt
+            runners = {k: TaskRunner(a, spec, i, rnd) for k, a in agents.items()}
+            turn = 0
+            # one episode of each agent in turn (order alternating), so load drifts on a
+            # shared machine hit all agents alike
+            while any(r.task_steps < steps for r in runners.values()):
+                order = list(runners) if turn % 2 == 0 else list(reversed(runners))
+                turn += 1
+                for k in order:
+                    r = runners[k]
+                    if r.task_steps >= steps:
+                        continue
+                    w0, t0 = time.perf_counter(), time.process_time()
+                    r.episode(max_env_steps=steps)
+                    dt = time.process_time() - t0
+                    walls[k] += time.perf_counter() - w0
+                    totals[k] += dt
+                    per_task[k][i] += dt
+            for r in runners.values():
+                r.close()
     n = steps * len(specs) * rounds
     us = {k: 1e6 * v / n for k, v in totals.items()}
     return {

@@ -32,6 +32,7 @@ True
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -59,9 +60,9 @@ def novelty_decay(n_task: float, decay: float) -> float:
     return n_task * decay
 
 
-def _sigmoid(x: np.ndarray) -> np.ndarray:
-    """Logistic function; the clip keeps ``exp`` finite for huge rewards (same value)."""
-    return 1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))
+def _sig(x: float) -> float:
+    """Scalar logistic function (Python floats are far cheaper than 1-element arrays)."""
+    return 1.0 / (1.0 + math.exp(-max(-60.0, min(60.0, x))))
 
 
 class Neuromodulators(nn.Module):
@@ -103,6 +104,8 @@ class Neuromodulators(nn.Module):
         self._active = active
         self._tau = np.array([dict(zip(MODULE_NAMES, cfg.taus, strict=True))[m] for m in LAYOUT])
         self._tau_eff = (self._tau * active).astype(np.float32)
+        self._tau_py = [float(x) for x in self._tau_eff]
+        self._ext = np.zeros((2, 1), dtype=np.float32)
         # State tensor (internal layout) and a NumPy view sharing its memory.
         self.state_t = torch.full((4,), float(cfg.initial_state))
         self.state_t[torch.from_numpy(~active)] = float(cfg.ablated_value)
@@ -132,17 +135,34 @@ class Neuromodulators(nn.Module):
         received for the action taken in it. 5HT reads the DA state updated in this call,
         ACh the NE state updated in this call.
         """
-        h = self.hidden
         s = self._s
-        pre = (obs @ self._w1o + self._b1).reshape(4, h)
+        tau = self._tau_py
+        ext = self._ext
+        pre = np.dot(obs, self._w1o)
+        pre += self._b1
+        p = pre.reshape(4, self.hidden)
         # stage 1: DA (extra input r), NE (extra input n_task)
-        z = pre[:2] + np.array([[reward], [self.n_task]], dtype=np.float32) * self._wex[:2]
-        t = _sigmoid((np.maximum(z, 0.0) * self._w2[:2]).sum(1) + self._b2[:2])
-        s[:2] += self._tau_eff[:2] * (t - s[:2])
+        ext[0, 0] = reward
+        ext[1, 0] = self.n_task
+        z = p[:2] + ext * self._wex[:2]
+        np.maximum(z, 0.0, out=z)
+        l_da, l_ne = ((z * self._w2[:2]).sum(1) + self._b2[:2]).tolist()
+        s_da = float(s[0])
+        s_ne = float(s[1])
+        s_da += tau[0] * (_sig(l_da) - s_da)
+        s_ne += tau[1] * (_sig(l_ne) - s_ne)
+        s[0] = s_da
+        s[1] = s_ne
         # stage 2: 5HT (extra input s_DA just updated), ACh (extra input s_NE just updated)
-        z = pre[2:] + s[:2, None] * self._wex[2:]
-        t = _sigmoid((np.maximum(z, 0.0) * self._w2[2:]).sum(1) + self._b2[2:])
-        s[2:] += self._tau_eff[2:] * (t - s[2:])
+        ext[0, 0] = s[0]
+        ext[1, 0] = s[1]
+        z = p[2:] + ext * self._wex[2:]
+        np.maximum(z, 0.0, out=z)
+        l_5ht, l_ach = ((z * self._w2[2:]).sum(1) + self._b2[2:]).tolist()
+        s_5ht = float(s[2])
+        s_ach = float(s[3])
+        s[2] = s_5ht + tau[2] * (_sig(l_5ht) - s_5ht)
+        s[3] = s_ach + tau[3] * (_sig(l_ach) - s_ach)
         self.n_task *= self.cfg.novelty_decay
 
     # ----------------------------------------------------------------- learned mode

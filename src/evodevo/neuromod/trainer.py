@@ -36,7 +36,16 @@ from evodevo.neuromod.variants import Variant, get_variant
 from evodevo.runs import CsvAppender, RunDir
 from evodevo.seeding import derive, np_rng
 
-__all__ = ["train", "EpisodeInfo", "METRIC_FIELDS", "NEUROMOD_FIELDS", "TIMING_KEYS", "load_agent"]
+__all__ = [
+    "train",
+    "train_task",
+    "TaskRunner",
+    "EpisodeInfo",
+    "METRIC_FIELDS",
+    "NEUROMOD_FIELDS",
+    "TIMING_KEYS",
+    "load_agent",
+]
 
 METRIC_FIELDS = ["task", "env_id", "episode", "return", "length", "epsilon", "lr", "step"]
 NEUROMOD_FIELDS = ["step", "task", *[f"s_{m}" for m in MODULE_NAMES], "n_task", "lr", "gate"]
@@ -75,6 +84,109 @@ def _neuromod_row(agent: BiarmAgent, step: int, task: int, n_task: float) -> dic
     return row
 
 
+class TaskRunner:
+    """Training of column ``index`` on one task, one episode per :meth:`episode` call.
+
+    Holds the task's environment, replay buffer, exploration stream and epsilon. The
+    benchmark interleaves episodes of several agents through this class; :func:`train_task`
+    runs all episodes of a task.
+    """
+
+    def __init__(
+        self,
+        agent: BiarmAgent,
+        spec: TaskSpec,
+        index: int,
+        seed: int,
+        step0: int = 0,
+        metrics: CsvAppender | None = None,
+        neuromod: CsvAppender | None = None,
+        hook: EpisodeHook | None = None,
+    ) -> None:
+        self.agent, self.spec, self.index = agent, spec, index
+        self.metrics, self.neuromod, self.hook = metrics, neuromod, hook
+        agent.begin_task(spec.n_actions)
+        self.rng = np_rng(seed, 1, index)
+        self.env = make_env(spec.env_id, spec.max_steps)
+        self.buf = ReplayBuffer(agent.cfg.dqn.replay_size, agent.obs_dim)
+        self.nxt = np.zeros(agent.obs_dim, dtype=np.float32)
+        self.eps = agent.cfg.dqn.eps_start
+        self.step = step0
+        self.task_steps = 0
+        self.episodes_done = 0
+        self.per_step: list[float] = []
+        self._obs, _ = self.env.reset(seed=derive(seed, 2, index))
+
+    def episode(self, max_env_steps: int | None = None) -> int:
+        """Run one training episode (stopping early at ``max_env_steps`` task steps)."""
+        agent, spec, index = self.agent, self.spec, self.index
+        cfg = agent.cfg
+        dqn = cfg.dqn
+        rng, buf, nxt = self.rng, self.buf, self.nxt
+        row = agent.obs_np
+        n = spec.obs_dim
+        eps = self.eps
+        interval = cfg.modules.sample_interval
+        decay = cfg.modules.novelty_decay
+        mods = agent.modules
+        neuromod = self.neuromod
+        bs, starts = dqn.batch_size, dqn.learning_starts
+        step, task_steps = self.step, self.task_steps
+        ep = self.episodes_done
+        obs = self._obs if ep == 0 else self.env.reset()[0]
+        row[:n] = obs.reshape(-1)
+        ret, length, updates = 0.0, 0, 0
+        t0 = time.perf_counter()
+        while True:
+            a = agent.act(eps, rng)
+            obs, r, term, trunc, _ = self.env.step(a)
+            r = float(r)
+            nxt[:n] = obs.reshape(-1)
+            n_task = mods.n_task if mods is not None else decay**task_steps
+            agent.observe(row, r)
+            buf.add(row, a, r, nxt, term, n_task)
+            if buf.size >= starts:
+                agent.update(buf.sample(rng, bs))
+                updates += 1
+            step += 1
+            task_steps += 1
+            if neuromod is not None and step % interval == 0:
+                nt = mods.n_task if mods is not None else decay**task_steps
+                neuromod.write(_neuromod_row(agent, step, index, nt))
+            ret += r
+            length += 1
+            row[:n] = nxt[:n]
+            if term or trunc or (max_env_steps is not None and task_steps >= max_env_steps):
+                break
+        dt = time.perf_counter() - t0
+        self.step, self.task_steps = step, task_steps
+        if updates == length:
+            self.per_step.append(dt / length)
+        if self.metrics is not None:
+            self.metrics.write(
+                {
+                    "task": index,
+                    "env_id": spec.env_id,
+                    "episode": ep,
+                    "return": ret,
+                    "length": length,
+                    "epsilon": f"{eps:.6g}",
+                    "lr": f"{agent.lr():.6g}",
+                    "step": step,
+                }
+            )
+        if self.hook is not None:
+            self.hook(
+                EpisodeInfo(index, spec.env_id, ep, spec.episodes, ret, length, eps, agent.lr())
+            )
+        self.eps = max(dqn.eps_min, eps * dqn.eps_decay)
+        self.episodes_done += 1
+        return length
+
+    def close(self) -> None:
+        self.env.close()
+
+
 def train_task(
     agent: BiarmAgent,
     spec: TaskSpec,
@@ -90,78 +202,15 @@ def train_task(
 
     ``max_env_steps`` stops early after that many environment steps (benchmarks).
     """
-    cfg = agent.cfg
-    dqn = cfg.dqn
-    agent.begin_task(spec.n_actions)
-    rng = np_rng(seed, 1, index)
-    env = make_env(spec.env_id, spec.max_steps)
-    buf = ReplayBuffer(dqn.replay_size, agent.obs_dim)
-    row = agent.obs_np
-    nxt = np.zeros(agent.obs_dim, dtype=np.float32)
-    n = spec.obs_dim
-    eps = dqn.eps_start
-    interval = cfg.modules.sample_interval
-    decay = cfg.modules.novelty_decay
-    mods = agent.modules
-    bs, starts = dqn.batch_size, dqn.learning_starts
-    step = step0
-    task_steps = 0
-    per_step: list[float] = []
-    obs, _ = env.reset(seed=derive(seed, 2, index))
+    runner = TaskRunner(agent, spec, index, seed, step0, metrics, neuromod, hook)
     try:
-        for ep in range(spec.episodes):
-            if ep:
-                obs, _ = env.reset()
-            row[:n] = obs.reshape(-1)
-            ret, length, updates = 0.0, 0, 0
-            t0 = time.perf_counter()
-            while True:
-                a = agent.act(eps, rng)
-                obs, r, term, trunc, _ = env.step(a)
-                r = float(r)
-                nxt[:n] = obs.reshape(-1)
-                n_task = mods.n_task if mods is not None else decay**task_steps
-                agent.observe(row, r)
-                buf.add(row, a, r, nxt, term, n_task)
-                if buf.size >= starts:
-                    agent.update(buf.sample(rng, bs))
-                    updates += 1
-                step += 1
-                task_steps += 1
-                if neuromod is not None and step % interval == 0:
-                    nt = mods.n_task if mods is not None else decay**task_steps
-                    neuromod.write(_neuromod_row(agent, step, index, nt))
-                ret += r
-                length += 1
-                row[:n] = nxt[:n]
-                if term or trunc or (max_env_steps is not None and task_steps >= max_env_steps):
-                    break
-            dt = time.perf_counter() - t0
-            if updates == length:
-                per_step.append(dt / length)
-            if metrics is not None:
-                metrics.write(
-                    {
-                        "task": index,
-                        "env_id": spec.env_id,
-                        "episode": ep,
-                        "return": ret,
-                        "length": length,
-                        "epsilon": f"{eps:.6g}",
-                        "lr": f"{agent.lr():.6g}",
-                        "step": step,
-                    }
-                )
-            if hook is not None:
-                hook(
-                    EpisodeInfo(index, spec.env_id, ep, spec.episodes, ret, length, eps, agent.lr())
-                )
-            eps = max(dqn.eps_min, eps * dqn.eps_decay)
-            if max_env_steps is not None and task_steps >= max_env_steps:
+        for _ in range(spec.episodes):
+            runner.episode(max_env_steps)
+            if max_env_steps is not None and runner.task_steps >= max_env_steps:
                 break
     finally:
-        env.close()
-    return step, per_step
+        runner.close()
+    return runner.step, runner.per_step
 
 
 def _truncate_csv(run: RunDir, name: str, fields: list[str], last_task: int) -> None:
