@@ -69,9 +69,13 @@ def measure(steps: int, rounds: int = 2) -> dict[str, Any]:
     """Interleaved rounds; returns steps/s of both and the ratios."""
     t = {"ours": [0.0, 0.0], "sb3": [0.0, 0.0]}
     for rnd in range(rounds):
-        for name, fn in (("ours", _ours), ("sb3", _sb3)) if rnd % 2 == 0 else (
-            ("sb3", _sb3),
-            ("ours", _ours),
+        for name, fn in (
+            (("ours", _ours), ("sb3", _sb3))
+            if rnd % 2 == 0
+            else (
+                ("sb3", _sb3),
+                ("ours", _ours),
+            )
         ):
             w, c = fn(steps, rnd)
             t[name][0] += w

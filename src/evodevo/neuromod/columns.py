@@ -236,16 +236,13 @@ class ProgressiveNet(nn.Module):
 
     def _refresh_frozen(self) -> None:
         """Cache the fused first layers and context weights of the frozen columns."""
-        cols = list(self.columns)
+        cols = [c for c in self.columns if isinstance(c, Column)]
         if not cols:
             return
-        self._w1_frozen = torch.cat([c.w1.detach() for c in cols], 1)  # type: ignore[union-attr]
-        self._b1_frozen = torch.cat([c.b1.detach() for c in cols])  # type: ignore[union-attr]
+        self._w1_frozen = torch.cat([c.w1.detach() for c in cols], 1)
+        self._b1_frozen = torch.cat([c.b1.detach() for c in cols])
         if self.gated:
-            rows = [
-                c.ctx_w.detach() if c.n_prev else torch.zeros(4)  # type: ignore[union-attr]
-                for c in cols
-            ]
+            rows = [c.ctx_w.detach() if c.n_prev else torch.zeros(4) for c in cols]
             self._ctxw_frozen = torch.stack(rows)
 
     def frozen_context(self, states: torch.Tensor, upto: int) -> torch.Tensor | None:
@@ -266,7 +263,7 @@ class ProgressiveNet(nn.Module):
             h1 = torch.relu(
                 torch.addmm(self._b1_frozen[: upto * h], x, self._w1_frozen[:, : upto * h])
             )
-            ctx = self.frozen_context(states, upto) if self.gated else None
+            ctx = self.frozen_context(states, upto) if states is not None else None
             h2s = []
             for j in range(upto):
                 col: Column = self.columns[j]  # type: ignore[assignment]

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -37,7 +38,7 @@ class TaskSpec:
 
 def make_env(env_id: str, max_steps: int | None) -> gym.Env:
     """``gym.make`` with the task's step limit, or a one-line error for an unknown id."""
-    kwargs = {} if max_steps is None else {"max_episode_steps": int(max_steps)}
+    kwargs: dict[str, Any] = {} if max_steps is None else {"max_episode_steps": int(max_steps)}
     try:
         return gym.make(env_id, **kwargs)
     except gym.error.Error as exc:
