@@ -175,3 +175,23 @@ def show_config() -> None:
 
     for key, default, doc in describe(BiarmConfig):
         typer.echo(f"{key:32s} {default:28s} {doc}")
+
+
+@app.command()
+def contrast(
+    runs: str = typer.Option(..., help="label=DIR pairs, e.g. fixed=out/f,learned=out/l."),
+    variant: str = typer.Option("biarm", help="Which variant's runs to contrast."),
+) -> None:
+    """Print a Markdown table contrasting one variant under several settings (saved runs only)."""
+    from evodevo.errors import EvodevoError
+    from evodevo.neuromod.compare import contrast_table
+
+    pairs = {}
+    for item in parse_list(runs) or []:
+        if "=" not in item:
+            raise EvodevoError(f"--runs item {item!r} must look like label=DIR")
+        label, folder = item.split("=", 1)
+        pairs[label] = folder
+    if not pairs:
+        raise EvodevoError("--runs names no folder; e.g. fixed=out/f,learned=out/l")
+    typer.echo(contrast_table(pairs, variant))

@@ -9,7 +9,7 @@ writes the tables as Markdown and CSV next to the figures, with the thesis' numb
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -290,3 +290,53 @@ def write_report(out: str | Path, figures: bool = True) -> Path:
     report = root / "report.md"
     atomic_write_text(report, "\n".join(parts))
     return report
+
+
+def contrast_table(dirs: Mapping[str, str | Path], variant: str = "biarm") -> str:
+    """Markdown table contrasting one variant run under several settings (e.g. fixed vs learned).
+
+    ``dirs`` maps a label to a ``compare`` output folder. Per task: final return mean ± std
+    [95 % bootstrap] of each label over the seeds all labels share, and a paired permutation
+    test (sign flips over seeds) between the first two labels.
+    """
+    from evodevo.stats import permutation_test
+
+    labels = list(dirs)
+    runs = {lab: collect(d).get(variant, {}) for lab, d in dirs.items()}
+    seeds = sorted(set.intersection(*(set(r) for r in runs.values())))
+    if not seeds:
+        raise EvodevoError(f"no seed of variant {variant!r} finished under every folder")
+    first = runs[labels[0]][seeds[0]]
+    envs = [t["env_id"] for t in first["tasks"]]
+    header = ["Environment", *[f"{lab} final" for lab in labels]]
+    header += [f"{lab} µs/step" for lab in labels]
+    if len(labels) >= 2:
+        header.append(f"paired permutation p ({labels[0]} vs {labels[1]})")
+    rows = []
+    higher = dict.fromkeys(labels, 0)
+    for i, env in enumerate(envs):
+        vals = {lab: [runs[lab][s]["tasks"][i]["final_return"] for s in seeds] for lab in labels}
+        us = {
+            lab: float(np.nanmean([runs[lab][s]["tasks"][i]["us_per_step"] for s in seeds]))
+            for lab in labels
+        }
+        row = [env, *[summarise(vals[lab]).fmt(1) for lab in labels]]
+        row += [f"{us[lab]:.0f}" for lab in labels]
+        if len(labels) >= 2:
+            a, b = vals[labels[0]], vals[labels[1]]
+            row.append("—" if a == b else f"{permutation_test(a, b, paired=True):.3f}")
+        rows.append(row)
+        means = {lab: float(np.mean(vals[lab])) for lab in labels}
+        best = max(means.values())
+        for lab in labels:
+            if means[lab] == best and list(means.values()).count(best) == 1:
+                higher[lab] += 1
+    eps = ", ".join(f"{t['env_id']} {t['episodes']}" for t in first["tasks"])
+    note = (
+        f"Variant {variant}; seeds {seeds}; episodes per task {eps}; "
+        f"tasks where a label has the strictly highest mean final return: {higher}.\n\n"
+    )
+    return note + _md_table(header, rows)
+
+
+__all__ += ["contrast_table"]
