@@ -31,7 +31,7 @@ import time
 import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import gymnasium as gym
 import numpy as np
@@ -243,17 +243,18 @@ def run_episodes(
         if not np.all(np.isfinite(actions)):
             raise EvodevoError("the controller produced non-finite actions")
         step_r = np.zeros(len(idx))
-        for j, b in enumerate(idx):
-            env = envs[b]
-            o, r, term, trunc, info = env.step(_scale_actions(actions[j], env.action_space))
-            obs_arr[b] = o
-            prop_arr[b] = sensors(o, info)
+        for j, slot in enumerate(idx.tolist()):
+            env = envs[slot]
+            box = cast(gym.spaces.Box, env.action_space)
+            o, r, term, trunc, info = env.step(_scale_actions(actions[j], box))
+            obs_arr[slot] = o
+            prop_arr[slot] = sensors(o, info)
             step_r[j] = float(r)
-            reward[b] += float(r)
-            steps[b] += 1
+            reward[slot] += float(r)
+            steps[slot] += 1
             if term or trunc:
-                active[b] = False
-                success[b] = bool(info.get("is_success", float(r) > 0))
+                active[slot] = False
+                success[slot] = bool(info.get("is_success", float(r) > 0))
         if observe is not None:
             observe(state, idx, step_r)
         if record:

@@ -99,7 +99,7 @@ def record_video(path: str | Path, out: str | Path, index: int = 0, objects: str
     try:
         ctrl = make_controller(cfg, action_dims(env.action_space))
         run_episodes(
-            [_Recording(env)],
+            [_Recording(env)],  # type: ignore[list-item]
             loaded.encoder,
             ctrl,
             [loaded.genome],
