@@ -167,6 +167,13 @@ def test_trivial_baselines_need_no_training_and_match_the_evaluators_own(tmp_pat
     result = json.loads(res.output.strip().splitlines()[-1])
     # the run directory's policy is the very trivial policy measured beside it, same seeds
     assert result["successes"] == result["baselines"][method]["successes"]
+    # `evodevo grn evaluate` takes the same run directory through the same code
+    from evodevo.cli import app as main_app
+
+    res = runner.invoke(main_app, ["grn", "evaluate", str(out), "--episodes", "2", "--json"])
+    assert res.exit_code == 0, res.output
+    via_grn = json.loads(res.output.strip().splitlines()[-1])
+    assert via_grn["controller"] == method and via_grn["successes"] == result["successes"]
 
 
 def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeypatch):
