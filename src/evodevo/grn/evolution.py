@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from evodevo.config import to_dict
-from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.config import from_dict, to_dict
+from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.encoder import Encoder
 from evodevo.grn.evaluator import Episode, Evaluator
 from evodevo.grn.fitness import fitness_matrix
@@ -349,6 +349,10 @@ def evolve_run(
         if not ckpt.is_file():
             raise EvodevoError(f"--resume: {str(ckpt)!r} does not exist; start without --resume")
         saved = run.read_config().get("config")
+        try:  # fields added to the config since the run started take their defaults
+            saved = to_dict(from_dict(type(config), saved or {}))
+        except ConfigError:
+            saved = None
         if saved != cfg_dict:
             raise EvodevoError(
                 f"--resume: the config differs from the one saved in {str(run / 'config.json')!r}; "
