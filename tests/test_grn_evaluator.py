@@ -149,3 +149,31 @@ def test_encoder_is_deterministic_saved_and_reloaded(tmp_path):
     state = torch.get_rng_state()
     Encoder.from_seed(5)
     assert torch.equal(state, torch.get_rng_state())  # the global torch RNG is left alone
+
+
+def test_evolution_on_ray_equals_the_process_pool(tmp_path):
+    """Issue 5: the same seed gives the same history on 1 worker, 2 processes and 2 Ray actors."""
+    import pytest
+
+    pytest.importorskip("ray")
+    from evodevo.config import load_config
+    from evodevo.grn.config import GrnConfig
+    from evodevo.grn.evolution import evolve_run
+
+    from pathlib import Path
+
+    cfg = load_config(
+        GrnConfig,
+        Path(__file__).resolve().parents[1] / "configs" / "grn_pendulum.yaml",
+        {
+            "evolution": {"population": 4, "generations": 2},
+            "evaluation": {"episodes": 2, "lockstep": 2},
+        },
+    )
+    runs = {
+        name: evolve_run(cfg, tmp_path / name, workers=w, backend=b, progress=False)[
+            "fitness_history"
+        ]
+        for name, w, b in (("one", 1, "local"), ("pool", 2, "local"), ("ray", 2, "ray"))
+    }
+    assert runs["one"] == runs["pool"] == runs["ray"]

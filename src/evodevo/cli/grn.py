@@ -72,6 +72,8 @@ def evolve(
     open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress line per generation."),
+    backend: str = typer.Option("local", help="local (process pool) or ray (Ray actors)."),
+    address: str | None = typer.Option(None, help="Ray cluster: auto or HOST:PORT (with --backend ray)."),
 ) -> None:
     """Evolve a GRN (Algorithm 3) into OUT: best_genome.npz, encoder.pt, history.csv, summary.json."""
     from evodevo.config import load_config
@@ -87,7 +89,9 @@ def evolve(
         cfg = load_config(GrnConfig, None, _merge(saved, ov))
     else:
         cfg = load_config(GrnConfig, config, ov)
-    summary = evolve_run(cfg, out, workers=workers, resume=resume, progress=not quiet)
+    summary = evolve_run(
+        cfg, out, workers=workers, resume=resume, progress=not quiet, backend=backend, address=address
+    )
     typer.echo(
         f"{summary['generations_run']} generations, {summary['episodes_run']} episodes, "
         f"{summary['wall_s']:.0f} s; best training success {summary['best_training_success']:.2f}"

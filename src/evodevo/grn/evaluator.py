@@ -38,7 +38,7 @@ import numpy as np
 
 from evodevo.errors import EvodevoError
 from evodevo.grn.encoder import Encoder
-from evodevo.parallel import WorkerPool
+from evodevo.parallel import make_pool
 from evodevo.seeding import derive
 
 __all__ = [
@@ -377,7 +377,13 @@ class Evaluator:
     """
 
     def __init__(
-        self, config: Any, encoder: Encoder | None, workers: int = 1, max_retries: int = 1
+        self,
+        config: Any,
+        encoder: Encoder | None,
+        workers: int = 1,
+        max_retries: int = 1,
+        backend: str = "local",
+        address: str | None = None,
     ) -> None:
         self.config = config
         self.key = uuid.uuid4().hex
@@ -389,11 +395,15 @@ class Evaluator:
         finally:
             probe.close()
         state = {k: v.clone() for k, v in encoder.weights().items()} if encoder else None
-        self.pool = WorkerPool(
+        # backend "local": in-process or a process pool; "ray": Ray actors (issue 5). Either
+        # way each worker builds its environments once and the results are the same.
+        self.pool = make_pool(
+            backend,
             workers,
             initializer=_init_worker,
             initargs=(self.key, config.env.id, dict(config.env.kwargs), state),
             max_retries=max_retries,
+            address=address,
         )
         self.episodes_run = 0
         self.env_steps = 0

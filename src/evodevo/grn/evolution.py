@@ -329,6 +329,8 @@ def evolve_run(
     resume: bool = False,
     hooks: Sequence[Hook] = (),
     progress: bool = True,
+    backend: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Evolve per ``config`` into run directory ``out``; returns the summary.
 
@@ -339,6 +341,8 @@ def evolve_run(
         resume: continue from ``out/checkpoints/checkpoint.npz`` (config must match).
         hooks: extra callbacks.
         progress: print one line per generation.
+        backend: "local" (process pool) or "ray" (Ray actors); results are the same.
+        address: Ray cluster address ("auto" or HOST:PORT); None starts a local Ray.
     """
     from evodevo.grn.controller import make_controller
 
@@ -368,7 +372,7 @@ def evolve_run(
         encoder = Encoder.from_seed(config.seed)
         encoder.save(run / "encoder.pt")
         run.write_config(cfg_dict, kind="grn")
-    with Evaluator(config, encoder, workers=workers) as evaluator:
+    with Evaluator(config, encoder, workers=workers, backend=backend, address=address) as evaluator:
         controller = make_controller(config, evaluator.n_actions)
         all_hooks: list[Hook] = [Checkpointer(run)]
         if progress:

@@ -1,0 +1,92 @@
+"""Evolution scaling (issue 5): GRN evolution wall time with 1 and 2 worker processes and with
+2 Ray actors, on the same seed, as speed-up ratios measured in one run.
+
+    python benchmarks/scaling.py --json [--quick]
+
+The last line is ``{"speedup_pool2": t1 / t_pool2, "speedup_ray2": t1 / t_ray2,
+"ray_vs_pool": t_ray2 / t_pool2, "same_history": ...}``. ``same_history`` checks that the three
+runs produced identical fitness histories (the result must not depend on the backend). On a
+2-core machine the ceiling is 2x; anything else running on the machine lowers it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+
+def _evolve(
+    backend: str, workers: int, population: int, episodes: int, generations: int, out: Path
+) -> tuple[float, list[float]]:
+    from evodevo.config import load_config
+    from evodevo.grn.config import GrnConfig
+    from evodevo.grn.evolution import evolve_run
+
+    cfg = load_config(
+        GrnConfig,
+        None,
+        {
+            "seed": 0,
+            "evolution": {"population": population, "generations": generations},
+            "evaluation": {"episodes": episodes},
+        },
+    )
+    t0 = time.perf_counter()
+    summary = evolve_run(cfg, out, workers=workers, backend=backend, progress=False)
+    return time.perf_counter() - t0, [float(f) for f in summary["fitness_history"]]
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    """Time the same evolution on 1 worker, a 2-process pool and 2 Ray actors."""
+    from evodevo.parallel import set_single_thread
+
+    set_single_thread()
+    population, episodes, generations = (4, 2, 1) if quick else (8, 4, 2)
+    res: dict[str, Any] = {
+        "population": population,
+        "episodes": episodes,
+        "generations": generations,
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        t1, h1 = _evolve("local", 1, population, episodes, generations, Path(tmp) / "w1")
+        t2, h2 = _evolve("local", 2, population, episodes, generations, Path(tmp) / "w2")
+        res.update(
+            seconds_1=round(t1, 2), seconds_pool2=round(t2, 2), speedup_pool2=round(t1 / t2, 3)
+        )
+        same = h1 == h2
+        try:
+            import ray  # noqa: F401
+
+            tr, hr = _evolve("ray", 2, population, episodes, generations, Path(tmp) / "r2")
+            res.update(
+                seconds_ray2=round(tr, 2),
+                speedup_ray2=round(t1 / tr, 3),
+                ray_vs_pool=round(tr / t2, 3),
+            )
+            same = same and h1 == hr
+        except ImportError:
+            res["ray"] = "not installed (pip install 'evodevo[ray]')"
+        res["same_history"] = same
+    return res
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__)
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quick", action="store_true")
+    args = p.parse_args(argv)
+    res = run(quick=args.quick)
+    if not args.json:
+        for k, v in res.items():
+            print(f"{k}: {v}", file=sys.stderr)
+    print(json.dumps(res))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
