@@ -156,11 +156,11 @@ def test_evolution_on_ray_equals_the_process_pool(tmp_path):
     import pytest
 
     pytest.importorskip("ray")
+    from pathlib import Path
+
     from evodevo.config import load_config
     from evodevo.grn.config import GrnConfig
     from evodevo.grn.evolution import evolve_run
-
-    from pathlib import Path
 
     cfg = load_config(
         GrnConfig,
