@@ -36,6 +36,7 @@ from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.selection import rank, tournament
 from evodevo.runs import RunDir, machine_info
 from evodevo.seeding import derive, np_rng
+from evodevo.signals import GracefulStop
 
 __all__ = [
     "GenerationRecord",
@@ -271,6 +272,20 @@ class Evolution:
         self.history = [GenerationRecord(**r) for r in meta["history"]]
 
 
+class StopOnSignal(Hook):
+    """Stop after the generation that was running when SIGINT/SIGTERM arrived (it is checkpointed)."""
+
+    def __init__(self, stop: GracefulStop, run_path: Path) -> None:
+        self.stop = stop
+        self.run_path = run_path
+
+    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
+        self.stop.check(
+            f"generation {record.generation}",
+            f"continue with: evodevo grn evolve --resume --out {self.run_path}",
+        )
+
+
 class Checkpointer(Hook):
     """After every generation: checkpoint, ``history.csv``, ``best_genome.npz``, ``summary.json``."""
 
@@ -372,11 +387,16 @@ def evolve_run(
         encoder = Encoder.from_seed(config.seed)
         encoder.save(run / "encoder.pt")
         run.write_config(cfg_dict, kind="grn")
-    with Evaluator(config, encoder, workers=workers, backend=backend, address=address) as evaluator:
+    with (
+        GracefulStop() as stop,
+        Evaluator(config, encoder, workers=workers, backend=backend, address=address) as evaluator,
+    ):
         controller = make_controller(config, evaluator.n_actions)
+        # Checkpoint first, then report, then stop cleanly if SIGINT/SIGTERM arrived (issue 5).
         all_hooks: list[Hook] = [Checkpointer(run)]
         if progress:
             all_hooks.append(ProgressPrinter())
+        all_hooks.append(StopOnSignal(stop, run.path))
         evo = Evolution(config, controller, evaluator, [*all_hooks, *hooks])
         if resume:
             evo.load_checkpoint(ckpt)
