@@ -169,7 +169,7 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                 )
                 steps.append(
                     Step(
-                        f"grn-plot-{label}-s{seed}", ["grn", "plot", str(rdir)], [rdir / "figures"]
+                        f"grn-plot-{label}-s{seed}", ["grn", "plot", str(rdir)], [rdir / "figures" / "expression_trace.png"]
                     )
                 )
     return steps
