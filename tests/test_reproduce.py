@@ -47,6 +47,23 @@ def test_plan_covers_every_part(tmp_path):
     assert ev.argv[ev.argv.index("--episodes") + 1] == "200" and "--json" in ev.argv
 
 
+def test_plan_reuses_baselines_and_runs_controls_early(tmp_path):
+    steps = plan(preset("thesis"), tmp_path)
+    names = [s.name for s in steps]
+    # every evaluation reuses the trivial policies of its object split instead of rerunning them
+    for s in steps:
+        if s.name.startswith("grn-evaluate-"):
+            split = s.argv[s.argv.index("--objects") + 1]
+            src = s.argv[s.argv.index("--baselines-from") + 1]
+            assert src == str(tmp_path / "grn" / f"baselines_{split}.json")
+            assert names.index(f"grn-baselines-{split}") < names.index(s.name)
+    # controls right after the first evolution; ablations after every evolution and test
+    assert names.index("grn-evolve-blind-s0") < names.index("grn-evolve-plain-s1")
+    assert names.index("grn-evolve-openloop-s0") < names.index("grn-evolve-plain-s1")
+    last_eval = max(i for i, n in enumerate(names) if n.startswith("grn-evaluate-"))
+    assert min(i for i, n in enumerate(names) if n.startswith("grn-ablate-")) > last_eval
+
+
 def _rate(k: int, n: int) -> dict:
     from evodevo.stats import rate
 

@@ -36,6 +36,7 @@ from stable_baselines3.common.callbacks import (
     CheckpointCallback,
     EvalCallback,
 )
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
@@ -349,6 +350,9 @@ def train_sb3(
             model, clock, rows = _resume_state(run, cfg, env)
         else:
             model, clock, rows = build_model(cfg, env), TrainClock(), []
+        # SB3's default logger creates an empty /tmp/SB3-<date> folder on every learn();
+        # ours records nothing outside the run directory.
+        model.set_logger(Logger(folder=None, output_formats=[]))
         done_steps = int(model.num_timesteps)
         evaluator = TimedEvalCallback(
             eval_env,

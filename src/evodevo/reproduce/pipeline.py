@@ -43,11 +43,14 @@ def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list
     """(label, controller, seed, extra evolve flags) of every GRN evolution."""
     g = cfg.grn
     runs = [(c, c, s, ["--controller", c]) for c in g.controllers for s in parse_seeds(g.seeds)]
+    controls: list[tuple[str, str, int, list[str]]] = []
     if g.controls:
         for s in parse_seeds(g.control_seeds):
-            runs.append(("blind", "plain", s, ["--blind"]))
-            runs.append(("openloop", "open_loop", s, ["--open-loop"]))
-    return runs
+            controls.append(("blind", "plain", s, ["--blind"]))
+            controls.append(("openloop", "open_loop", s, ["--open-loop"]))
+    # The controls come right after the first evolution: the headline comparison (GRN vs
+    # blind GRN vs open loop) is complete early in a long, resumed-many-times run.
+    return runs[:1] + controls + runs[1:]
 
 
 def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
@@ -90,10 +93,23 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
             steps.append(
                 Step(
                     f"grn-baselines-{objects}",
-                    ["grn", "baselines", "--episodes", str(n), "--objects", objects, "--workers", w, "--out", str(path)],
+                    [
+                        "grn",
+                        "baselines",
+                        "--episodes",
+                        str(n),
+                        "--objects",
+                        objects,
+                        "--workers",
+                        w,
+                        "--out",
+                        str(path),
+                    ],
                     [path],
                 )
             )
+        # Ablations and plots of every evolution run after all evolutions and tests.
+        late: list[Step] = []
         for label, _controller, seed, flags in _grn_runs(cfg, out):
             rdir = out / "grn" / f"{label}_s{seed}"
             steps.append(
@@ -145,6 +161,8 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                             repr(noise),
                             "--workers",
                             w,
+                            "--baselines-from",
+                            str(out / "grn" / f"baselines_{objects}.json"),
                             "--json",
                         ],
                         [rdir / f"repro_{tag}.json"],
@@ -152,7 +170,7 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                     )
                 )
             if label in g.controllers:
-                steps.append(
+                late.append(
                     Step(
                         f"grn-ablate-{label}-s{seed}",
                         [
@@ -167,11 +185,14 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                         [rdir / "ablations.csv"],
                     )
                 )
-                steps.append(
+                late.append(
                     Step(
-                        f"grn-plot-{label}-s{seed}", ["grn", "plot", str(rdir)], [rdir / "figures" / "expression_trace.png"]
+                        f"grn-plot-{label}-s{seed}",
+                        ["grn", "plot", str(rdir)],
+                        [rdir / "figures" / "expression_trace.png"],
                     )
                 )
+        steps += late
     return steps
 
 
