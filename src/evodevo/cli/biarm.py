@@ -3,6 +3,7 @@
 Examples::
 
     evodevo biarm train --variant biarm --seed 0 --out runs/biarm_s0
+    evodevo biarm train --resume --out runs/biarm_s0      # after a kill or Ctrl-C
     evodevo biarm train --variant pnn --tasks CartPole-v1,Acrobot-v1 --episodes-scale 0.1 --out runs/x
     evodevo biarm compare --variants biarm,pnn --seeds 0-4 --workers 2 --out runs/cmp
     evodevo biarm report runs/cmp
@@ -16,6 +17,7 @@ from typing import Any
 import typer
 
 from evodevo.cli.common import parse_list, parse_seeds
+from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
 
@@ -68,61 +70,109 @@ def _load(
 _SET_HELP = "Override a config key, e.g. --set eval.episodes=5 (repeatable)."
 
 
+def _resume_settings(
+    out: Path, variant: str | None, seed: int | None, own_config: bool
+) -> tuple[str | None, int | None, Any]:
+    """Variant, seed and config saved in OUT/config.json (for ``train --resume``)."""
+    from evodevo.config import from_dict
+    from evodevo.neuromod.config import BiarmConfig
+    from evodevo.runs import read_json
+
+    saved = read_json(out / "config.json")
+    if saved.get("kind") != "biarm":
+        raise EvodevoError(
+            f"--resume: {str(out)!r} holds a {saved.get('kind')!r} run, not a BIARM run"
+        )
+    data = dict(saved.get("config", {}))
+    saved_variant, saved_seed = data.pop("variant", None), data.pop("seed", None)
+    cfg = None if own_config else from_dict(BiarmConfig, data)
+    return (
+        variant if variant is not None else saved_variant,
+        seed if seed is not None else saved_seed,
+        cfg,
+    )
+
+
 @app.command()
 def train(
-    variant: str = typer.Option("biarm", help="biarm, pnn, no-da, no-5ht, no-ne or no-ach."),
+    variant: str | None = typer.Option(
+        None, help="biarm, pnn, no-da, no-5ht, no-ne or no-ach [biarm]."
+    ),
     tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
     episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
-    seed: int = typer.Option(0, help="Run seed (every random stream derives from it)."),
+    seed: int | None = typer.Option(
+        None, help="Run seed (every random stream derives from it) [0]."
+    ),
     config: Path | None = typer.Option(None, help="YAML config (configs/biarm.yaml keys)."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
-    resume: bool = typer.Option(False, help="Continue from the last finished task in --out."),
+    resume: bool = typer.Option(
+        False,
+        help="Continue from the newest checkpoint in --out (after a task, or every "
+        "checkpoint_every episodes); variant, seed and config default to the saved ones.",
+    ),
     quiet: bool = typer.Option(False, help="No progress bar."),
     out: Path = typer.Option(..., help="Run directory."),
 ) -> None:
-    """Train one variant through the task sequence into OUT."""
+    """Train one variant through the task sequence into OUT.
+
+    SIGINT/SIGTERM finish the current episode, write a checkpoint and stop; ``--resume``
+    continues with the numbers an uninterrupted run would give.
+    """
     from evodevo.neuromod.tasks import resolve_tasks
-    from evodevo.neuromod.trainer import EpisodeInfo
-    from evodevo.neuromod.trainer import train as run_train
     from evodevo.neuromod.variants import get_variant
     from evodevo.parallel import set_single_thread
+    from evodevo.signals import GracefulStop
 
-    var = get_variant(variant)
-    cfg = _load(config, tasks, episodes_scale, set_)
+    cfg = None
+    if resume and (out / "config.json").is_file():
+        own = config is not None or tasks is not None or episodes_scale is not None or bool(set_)
+        variant, seed, cfg = _resume_settings(out, variant, seed, own)
+    var = get_variant(variant if variant is not None else "biarm")
+    seed = 0 if seed is None else seed
+    if cfg is None:
+        cfg = _load(config, tasks, episodes_scale, set_)
     resolve_tasks(cfg)
     set_single_thread()
-    if quiet:
-        summary = run_train(cfg, var, seed, out, resume=resume)
-    else:
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
-        with Progress(
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.fields[info]}"),
-        ) as progress:
-            bars: dict[int, Any] = {}
-
-            def on_task(i: int, spec: Any) -> None:
-                bars[i] = progress.add_task(
-                    f"[{i + 1}] {spec.env_id}", total=spec.episodes, info=""
-                )
-
-            def hook(e: EpisodeInfo) -> None:
-                progress.update(
-                    bars[e.task],
-                    completed=e.episode + 1,
-                    info=f"return {e.ret:8.1f}  eps {e.epsilon:.3f}  lr {e.lr:.2e}",
-                )
-
-            summary = run_train(cfg, var, seed, out, resume=resume, hook=hook, on_task=on_task)
+    with GracefulStop() as stop:
+        summary = _train_with_progress(cfg, var, seed, out, resume, quiet, stop)
     for t in summary["tasks"]:
         typer.echo(
             f"{t['env_id']:16s} initial {t['initial_return']:9.2f}  final {t['final_return']:9.2f}"
             f"  retention {t['retention']:.3f}  {t['us_per_step']:.0f} µs/step"
         )
     typer.echo(f"wrote {out}/summary.json")
+
+
+def _train_with_progress(
+    cfg: Any, var: Any, seed: int, out: Path, resume: bool, quiet: bool, stop: Any
+) -> dict[str, Any]:
+    """``trainer.train`` with one progress bar per task unless ``quiet``."""
+    from evodevo.neuromod.trainer import EpisodeInfo
+    from evodevo.neuromod.trainer import train as run_train
+
+    if quiet:
+        return run_train(cfg, var, seed, out, resume=resume, stop=stop)
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[info]}"),
+    ) as progress:
+        bars: dict[int, Any] = {}
+
+        def on_task(i: int, spec: Any) -> None:
+            bars[i] = progress.add_task(f"[{i + 1}] {spec.env_id}", total=spec.episodes, info="")
+
+        def hook(e: EpisodeInfo) -> None:
+            progress.update(
+                bars[e.task],
+                completed=e.episode + 1,
+                info=f"return {e.ret:8.1f}  eps {e.epsilon:.3f}  lr {e.lr:.2e}",
+            )
+
+        return run_train(cfg, var, seed, out, resume=resume, hook=hook, on_task=on_task, stop=stop)
 
 
 @app.command()

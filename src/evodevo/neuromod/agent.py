@@ -195,3 +195,29 @@ class BiarmAgent:
         if self.modules is not None:
             self.modules.load_state_dict(data["modules"])
             self.modules.load_extra_state(data["modules_extra"])
+
+    def train_state(self) -> dict[str, Any]:
+        """:meth:`state` plus what continuing the current task needs (mid-task checkpoints):
+        the target network, Adam's state and the gradient-step counter."""
+        assert self.target is not None and self.optimizer is not None
+        return {
+            **self.state(),
+            "target": self.target.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "grad_steps": self.grad_steps,
+        }
+
+    def load_train_state(self, data: dict[str, Any]) -> None:
+        """Restore :meth:`train_state` output into a freshly built agent, mid-task: earlier
+        columns frozen, the last one trainable with its target network and Adam state."""
+        for a in data["net_config"]["actions"]:
+            self.begin_task(int(a))
+        self.net.load_state_dict(data["net"])
+        self.net._refresh_frozen()  # the fused caches of the frozen columns hold copies
+        if self.modules is not None:
+            self.modules.load_state_dict(data["modules"])
+            self.modules.load_extra_state(data["modules_extra"])
+        assert self.target is not None and self.optimizer is not None
+        self.target.load_state_dict(data["target"])
+        self.optimizer.load_state_dict(data["optimizer"])
+        self.grad_steps = int(data["grad_steps"])

@@ -1,16 +1,30 @@
-"""Checkpoints after every finished task, and resume (SPEC §1; STYLE.md point 5).
+"""Checkpoints after every task and every N episodes within a task, and resume (SPEC §1; issue 5).
 
-``checkpoints/task{i}.pt`` holds the whole column stack up to column i (so every finished
-column is on disk), the modules, their states and novelty, and the per-task results so far.
-Every per-task random stream is derived from ``(seed, task index)``, so a resumed run continues
-with exactly the numbers an uninterrupted run would produce. Written atomically
-(``torch.save`` to memory, then :func:`evodevo.runs.atomic_write_bytes`).
+Two kinds of file live in ``checkpoints/``:
+
+* ``task{i}.pt`` after task i finished: the column stack up to column i (so every finished
+  column is on disk), the modules, their states and novelty, and the per-task results so far.
+  Every per-task random stream is derived from ``(seed, task index)``, so resuming after a
+  finished task needs nothing else.
+* ``task{i}_ep{k}.pt`` after the first k episodes of task i (every ``checkpoint_every``
+  episodes, and when SIGINT/SIGTERM asks the run to stop): additionally the trainable column's
+  Adam state, its target network and gradient-step counter, the replay buffer (the filled rows
+  of the preallocated array, position and size), epsilon, the step counters, and the states of
+  the two random streams that are live inside a task: the exploration/replay Generator and the
+  environment's ``np_random`` (Gymnasium environments draw all their randomness from it, so
+  restoring it reproduces every later ``reset()``). Only the newest mid-task file is kept.
+
+Every file is a dict tagged ``format: "evodevo-biarm"`` written atomically (``torch.save`` to
+memory, then :func:`evodevo.runs.atomic_write_bytes`), so a kill during a write leaves the
+previous checkpoint intact. A corrupt, truncated or foreign file raises
+:class:`~evodevo.errors.CheckpointError` naming the file and what to do.
 """
 
 from __future__ import annotations
 
 import io
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,30 +33,98 @@ import torch
 from evodevo.errors import CheckpointError
 from evodevo.runs import atomic_write_bytes
 
-__all__ = ["save_checkpoint", "load_checkpoint", "latest_checkpoint"]
+__all__ = [
+    "FORMAT",
+    "ResumePoint",
+    "save_checkpoint",
+    "save_partial_checkpoint",
+    "load_checkpoint",
+    "latest_checkpoint",
+    "latest_resume_point",
+]
 
-_NAME = re.compile(r"^task(\d+)\.pt$")
+#: Tag of every BIARM checkpoint (files written before the tag existed hold ``agent`` only).
+FORMAT = "evodevo-biarm"
+_TASK = re.compile(r"^task(\d+)\.pt$")
+_PARTIAL = re.compile(r"^task(\d+)_ep(\d+)\.pt$")
 
 
-def save_checkpoint(folder: Path, task_index: int, payload: dict[str, Any]) -> Path:
-    """Atomically write ``payload`` as ``folder/task{task_index}.pt``."""
+@dataclass(frozen=True)
+class ResumePoint:
+    """Where a run continues: after ``episodes`` episodes of task ``task`` (None: task done)."""
+
+    task: int
+    episodes: int | None
+    path: Path
+
+    @property
+    def finished_task(self) -> bool:
+        return self.episodes is None
+
+
+def _write(path: Path, payload: dict[str, Any]) -> Path:
     buf = io.BytesIO()
-    torch.save(payload, buf)
-    path = Path(folder) / f"task{task_index}.pt"
+    torch.save({"format": FORMAT, **payload}, buf)
     atomic_write_bytes(path, buf.getvalue())
     return path
 
 
+def _partials(folder: Path) -> list[tuple[int, int, Path]]:
+    if not folder.is_dir():
+        return []
+    return sorted(
+        (int(m.group(1)), int(m.group(2)), p)
+        for p in folder.iterdir()
+        if (m := _PARTIAL.match(p.name))
+    )
+
+
+def save_checkpoint(folder: Path, task_index: int, payload: dict[str, Any]) -> Path:
+    """Atomically write ``payload`` as ``folder/task{task_index}.pt`` (task finished).
+
+    Mid-task files of this or earlier tasks are removed afterwards (they are superseded).
+    """
+    folder = Path(folder)
+    path = _write(folder / f"task{task_index}.pt", payload)
+    for task, _, p in _partials(folder):
+        if task <= task_index:
+            p.unlink(missing_ok=True)
+    return path
+
+
+def save_partial_checkpoint(
+    folder: Path, task_index: int, episodes: int, payload: dict[str, Any]
+) -> Path:
+    """Atomically write ``folder/task{i}_ep{k}.pt`` after ``k`` episodes of task ``i``.
+
+    The previous mid-task file is removed only after the new one is complete.
+    """
+    folder = Path(folder)
+    path = _write(folder / f"task{task_index}_ep{episodes}.pt", payload)
+    for _, _, p in _partials(folder):
+        if p != path:
+            p.unlink(missing_ok=True)
+    return path
+
+
 def load_checkpoint(path: Path) -> dict[str, Any]:
-    """Load a checkpoint written by :func:`save_checkpoint`."""
+    """Load a checkpoint written by :func:`save_checkpoint` or :func:`save_partial_checkpoint`."""
+    path = Path(path)
+    hint = (
+        "delete it to resume from the checkpoint before it (or the start of the run), "
+        "or start again in a new --out"
+    )
     try:
         data = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as exc:  # corrupt or truncated file
+    except Exception as exc:  # corrupt, truncated, or not a torch file at all
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         raise CheckpointError(
-            f"checkpoint {str(path)!r} cannot be read ({exc}); delete it"
+            f"checkpoint {str(path)!r} is corrupt or truncated ({first}); {hint}"
         ) from None
-    if not isinstance(data, dict) or "agent" not in data:
-        raise CheckpointError(f"{str(path)!r} is not a BIARM checkpoint")
+    if not isinstance(data, dict) or "agent" not in data or data.get("format", FORMAT) != FORMAT:
+        raise CheckpointError(
+            f"{str(path)!r} is not a BIARM checkpoint (written by something else); {hint}"
+        )
     return data
 
 
@@ -51,5 +133,19 @@ def latest_checkpoint(folder: Path) -> tuple[int, Path] | None:
     folder = Path(folder)
     if not folder.is_dir():
         return None
-    found = [(int(m.group(1)), p) for p in folder.iterdir() if (m := _NAME.match(p.name))]
+    found = [(int(m.group(1)), p) for p in folder.iterdir() if (m := _TASK.match(p.name))]
     return max(found) if found else None
+
+
+def latest_resume_point(folder: Path) -> ResumePoint | None:
+    """The newest checkpoint, finished-task or mid-task, or None when there is none."""
+    done = latest_checkpoint(folder)
+    best = ResumePoint(done[0], None, done[1]) if done is not None else None
+    for task, episodes, p in _partials(Path(folder)):
+        if (
+            best is None
+            or task > best.task
+            or (task == best.task and best.episodes is not None and episodes > best.episodes)
+        ):
+            best = ResumePoint(task, episodes, p)
+    return best

@@ -190,6 +190,9 @@ class BiarmConfig:
     )
     episodes_scale: float = doc(1.0, "multiplies every task's episodes (rounded, min 1)")
     default_episodes: int = doc(500, "episodes for a --tasks id not in the thesis table")
+    checkpoint_every: int = doc(
+        50, "episodes between mid-task checkpoints (0: only after each task)"
+    )
     dqn: DQNConfig = field(default_factory=DQNConfig, metadata={"doc": "DQN section"})
     network: NetworkConfig = field(default_factory=NetworkConfig, metadata={"doc": "columns"})
     modules: ModuleConfig = field(default_factory=ModuleConfig, metadata={"doc": "modules"})
@@ -204,6 +207,11 @@ class BiarmConfig:
             )
         if self.default_episodes < 1:
             raise ConfigError(f"default_episodes={self.default_episodes} must be at least 1")
+        if self.checkpoint_every < 0:
+            raise ConfigError(
+                f"checkpoint_every={self.checkpoint_every} must be >= 0 (0 turns mid-task "
+                "checkpoints off)"
+            )
 
     def scaled_episodes(self, task: TaskConfig) -> int:
         """Episodes of ``task`` after ``episodes_scale`` (round, at least 1)."""

@@ -3,11 +3,15 @@
 :func:`train` runs the task sequence for one variant and seed into a run directory:
 ``config.json``, ``metrics.csv`` (one row per episode), ``neuromod.csv`` (one row every
 ``modules.sample_interval`` environment steps), ``checkpoints/task{i}.pt`` after every task,
-and ``summary.json`` at the end. Every random stream is derived from the run seed and the task
-index (:mod:`evodevo.seeding`): the replay sampling and exploration stream
-``np_rng(seed, 1, i)``, the environment ``derive(seed, 2, i)``, column i ``derive(seed, 3, i)``
-and the modules ``derive(seed, 4)``; so ``--resume`` after task i gives the same numbers as an
-uninterrupted run.
+``checkpoints/task{i}_ep{k}.pt`` every ``checkpoint_every`` episodes within a task
+(:mod:`evodevo.neuromod.checkpoint`), and ``summary.json`` at the end. Every random stream is
+derived from the run seed and the task index (:mod:`evodevo.seeding`): the replay sampling and
+exploration stream ``np_rng(seed, 1, i)``, the environment ``derive(seed, 2, i)`` (its first
+reset; later resets continue the environment's own ``np_random``), column i
+``derive(seed, 3, i)`` and the modules ``derive(seed, 4)``. A mid-task checkpoint stores the
+states of the two streams live inside a task, so ``--resume`` from any checkpoint gives the
+same numbers as an uninterrupted run. With a :class:`~evodevo.signals.GracefulStop`, SIGINT or
+SIGTERM end the run after the current episode and its checkpoint.
 
 Per environment step (no printing, no allocation beyond what NumPy/torch need): act,
 environment step, module update (Eq. 3.1-3.6), store, one gradient step at the Eq. 3.7 rate.
@@ -27,7 +31,13 @@ import numpy as np
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, EvodevoError
 from evodevo.neuromod.agent import BiarmAgent
-from evodevo.neuromod.checkpoint import latest_checkpoint, load_checkpoint, save_checkpoint
+from evodevo.neuromod.checkpoint import (
+    latest_checkpoint,
+    latest_resume_point,
+    load_checkpoint,
+    save_checkpoint,
+    save_partial_checkpoint,
+)
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, retention
 from evodevo.neuromod.replay import ReplayBuffer
@@ -35,6 +45,7 @@ from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.variants import Variant, get_variant
 from evodevo.runs import CsvAppender, RunDir
 from evodevo.seeding import derive, np_rng
+from evodevo.signals import GracefulStop
 
 __all__ = [
     "train",
@@ -45,6 +56,7 @@ __all__ = [
     "NEUROMOD_FIELDS",
     "TIMING_KEYS",
     "load_agent",
+    "resume_hint",
 ]
 
 METRIC_FIELDS = ["task", "env_id", "episode", "return", "length", "epsilon", "lr", "step"]
@@ -90,6 +102,10 @@ class TaskRunner:
     Holds the task's environment, replay buffer, exploration stream and epsilon. The
     benchmark interleaves episodes of several agents through this class; :func:`train_task`
     runs all episodes of a task.
+
+    ``resume`` is the :meth:`state` of a runner checkpointed mid-task; the agent must then
+    already hold that task's column (:meth:`BiarmAgent.load_train_state`), and the runner
+    continues with exactly the episodes an uninterrupted runner would have run.
     """
 
     def __init__(
@@ -102,10 +118,12 @@ class TaskRunner:
         metrics: CsvAppender | None = None,
         neuromod: CsvAppender | None = None,
         hook: EpisodeHook | None = None,
+        resume: dict[str, Any] | None = None,
     ) -> None:
         self.agent, self.spec, self.index = agent, spec, index
         self.metrics, self.neuromod, self.hook = metrics, neuromod, hook
-        agent.begin_task(spec.n_actions)
+        if resume is None:
+            agent.begin_task(spec.n_actions)
         self.rng = np_rng(seed, 1, index)
         self.env = make_env(spec.env_id, spec.max_steps)
         self.buf = ReplayBuffer(agent.cfg.dqn.replay_size, agent.obs_dim)
@@ -115,7 +133,51 @@ class TaskRunner:
         self.task_steps = 0
         self.episodes_done = 0
         self.per_step: list[float] = []
-        self._obs, _ = self.env.reset(seed=derive(seed, 2, index))
+        if resume is None:
+            self._obs, _ = self.env.reset(seed=derive(seed, 2, index))
+        else:
+            self._load_state(resume)
+
+    def state(self) -> dict[str, Any]:
+        """Everything of this runner a mid-task checkpoint needs (between episodes)."""
+        buf = self.buf
+        return {
+            "task": self.index,
+            "rng": self.rng.bit_generator.state,
+            "env_rng": self.env.unwrapped.np_random.bit_generator.state,
+            "replay": {"data": buf.data[: buf.size].copy(), "pos": buf.pos, "size": buf.size},
+            "eps": self.eps,
+            "step": self.step,
+            "task_steps": self.task_steps,
+            "episodes_done": self.episodes_done,
+            "per_step": list(self.per_step),
+        }
+
+    def _load_state(self, data: dict[str, Any]) -> None:
+        if int(data["task"]) != self.index:
+            raise CheckpointError(
+                f"mid-task checkpoint of task {data['task']} given to task {self.index}"
+            )
+        self.rng.bit_generator.state = data["rng"]
+        env_rng = data["env_rng"]
+        bit_gen = getattr(np.random, env_rng["bit_generator"])()
+        bit_gen.state = env_rng
+        self.env.unwrapped.np_random = np.random.Generator(bit_gen)
+        rep = data["replay"]
+        size = int(rep["size"])
+        if rep["data"].shape != (size, self.buf.data.shape[1]) or size > self.buf.capacity:
+            raise CheckpointError(
+                f"the checkpoint's replay buffer has shape {tuple(rep['data'].shape)}, "
+                f"this run's holds rows of {self.buf.data.shape[1]} values "
+                f"(capacity {self.buf.capacity}); resume with the run's own config"
+            )
+        self.buf.data[:size] = rep["data"]
+        self.buf.pos, self.buf.size = int(rep["pos"]), size
+        self.eps = float(data["eps"])
+        self.step = int(data["step"])
+        self.task_steps = int(data["task_steps"])
+        self.episodes_done = int(data["episodes_done"])
+        self.per_step = [float(x) for x in data["per_step"]]
 
     def episode(self, max_env_steps: int | None = None) -> int:
         """Run one training episode (stopping early at ``max_env_steps`` task steps)."""
@@ -213,12 +275,12 @@ def train_task(
     return runner.step, runner.per_step
 
 
-def _truncate_csv(run: RunDir, name: str, fields: list[str], last_task: int) -> None:
-    """Keep only the rows of tasks ``<= last_task`` (resume after a kill mid-task)."""
+def _truncate_csv(run: RunDir, name: str, fields: list[str], last_step: int) -> None:
+    """Keep only the rows up to global step ``last_step`` (resume after a kill)."""
     if not (run / name).is_file():
         return
     rows = [
-        r for r in run.read_csv(name) if r.get("task", "") != "" and int(r["task"]) <= last_task
+        r for r in run.read_csv(name) if r.get("step", "") != "" and int(r["step"]) <= last_step
     ]
     run.write_csv(name, rows, fields)
 
@@ -235,6 +297,21 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
             )
 
 
+def _check_payload(ckpt: dict[str, Any], path: Path, variant: Variant, seed: int) -> None:
+    """A checkpoint copied in from another run is refused (its variant or seed differs)."""
+    for key, mine in (("variant", variant.name), ("seed", seed)):
+        if key in ckpt and ckpt[key] != mine:
+            raise CheckpointError(
+                f"checkpoint {str(path)!r} belongs to a run with {key} {ckpt[key]!r}, not "
+                f"{mine!r}; remove it or resume with the run's own options"
+            )
+
+
+def resume_hint(out: str | Path) -> str:
+    """The command that continues a stopped run."""
+    return f"continue with: evodevo biarm train --resume --out {out}"
+
+
 def train(
     cfg: BiarmConfig,
     variant: str | Variant,
@@ -243,17 +320,33 @@ def train(
     resume: bool = False,
     hook: EpisodeHook | None = None,
     on_task: Callable[[int, TaskSpec], None] | None = None,
+    stop: GracefulStop | None = None,
 ) -> dict[str, Any]:
     """Run the whole task sequence for one variant and seed; returns the summary.
 
     All input checks (environment ids, spaces, ``d_max``, variant, scale) happen before the
     first environment step.
+
+    Args:
+        cfg: the resolved config (``checkpoint_every`` sets the mid-task checkpoints).
+        variant: variant name or object.
+        seed: run seed.
+        out: run directory.
+        resume: continue from the newest checkpoint in ``out`` (finished task or mid-task);
+            the rows of ``metrics.csv``/``neuromod.csv`` written after it are dropped, and the
+            run ends with the same ``summary.json`` (wall-time fields aside) as an
+            uninterrupted one.
+        hook: called after every training episode.
+        on_task: called when a task starts (or resumes).
+        stop: a :class:`~evodevo.signals.GracefulStop`; when it reports a signal, the run
+            finishes the current episode, checkpoints and raises
+            :class:`~evodevo.signals.StopRequested`.
     """
     var = get_variant(variant) if isinstance(variant, str) else variant
     specs, d_max = resolve_tasks(cfg)
     run = RunDir(out)
-    last = latest_checkpoint(run.path / "checkpoints")
-    if last is not None and not resume:
+    point = latest_resume_point(run.path / "checkpoints")
+    if point is not None and not resume:
         raise EvodevoError(
             f"{str(run.path)!r} already holds checkpoints of a run; pass --resume to continue "
             "it or choose another --out"
@@ -266,18 +359,27 @@ def train(
     results: list[dict[str, Any]] = []
     step = 0
     start = 0
-    if resume and last is not None:
-        ckpt = load_checkpoint(last[1])
-        agent.load_state(ckpt["agent"])
+    partial: dict[str, Any] | None = None
+    if resume and point is not None:
+        ckpt = load_checkpoint(point.path)
+        _check_payload(ckpt, point.path, var, seed)
         results = list(ckpt["results"])
         step = int(ckpt["step"])
-        start = last[0] + 1
-        _truncate_csv(run, "metrics.csv", METRIC_FIELDS, last[0])
-        _truncate_csv(run, "neuromod.csv", NEUROMOD_FIELDS, last[0])
-    elif not resume or last is None:
+        if point.finished_task:
+            agent.load_state(ckpt["agent"])
+            start = point.task + 1
+        else:
+            agent.load_train_state(ckpt["agent"])
+            start = point.task
+            partial = ckpt["runner"]
+        _truncate_csv(run, "metrics.csv", METRIC_FIELDS, step)
+        _truncate_csv(run, "neuromod.csv", NEUROMOD_FIELDS, step)
+    else:
         for name in ("metrics.csv", "neuromod.csv"):
             (run / name).unlink(missing_ok=True)
     seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
+    every = cfg.checkpoint_every
+    hint = resume_hint(run.path)
     t_start = time.perf_counter()
     with (
         CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
@@ -287,7 +389,32 @@ def train(
             spec = specs[i]
             if on_task is not None:
                 on_task(i, spec)
-            step, per_step = train_task(agent, spec, i, seed, step, metrics, neuromod, hook)
+            runner = TaskRunner(agent, spec, i, seed, step, metrics, neuromod, hook, resume=partial)
+            partial = None
+            try:
+                while runner.episodes_done < spec.episodes:
+                    runner.episode()
+                    k = runner.episodes_done
+                    stopping = stop is not None and stop.requested
+                    if k < spec.episodes and ((every and k % every == 0) or stopping):
+                        save_partial_checkpoint(
+                            run.checkpoints,
+                            i,
+                            k,
+                            {
+                                "agent": agent.train_state(),
+                                "runner": runner.state(),
+                                "results": results,
+                                "step": runner.step,
+                                "variant": var.name,
+                                "seed": seed,
+                            },
+                        )
+                        if stop is not None:
+                            stop.check(f"episode {k} of task {i} ({spec.env_id})", hint)
+            finally:
+                runner.close()
+            step, per_step = runner.step, runner.per_step
             initial = evaluate_column(agent, i, spec, seeds)
             results.append(
                 {
@@ -303,8 +430,16 @@ def train(
             save_checkpoint(
                 run.checkpoints,
                 i,
-                {"agent": agent.state(), "results": results, "step": step, "variant": var.name},
+                {
+                    "agent": agent.state(),
+                    "results": results,
+                    "step": step,
+                    "variant": var.name,
+                    "seed": seed,
+                },
             )
+            if stop is not None and i + 1 < len(specs):
+                stop.check(f"task {i} ({spec.env_id})", hint)
     agent.end_training()
     tasks = []
     for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
