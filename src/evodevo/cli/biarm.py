@@ -181,13 +181,22 @@ def compare(
     seeds: str = typer.Option("0-4", help="Seeds, e.g. 0-4 or 0,2,5."),
     episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
     tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
-    workers: int = typer.Option(2, help="Worker processes."),
+    workers: int = typer.Option(2, help="Parallel runs (worker processes or Ray actors)."),
     config: Path | None = typer.Option(None, help="YAML config."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
+    backend: str = typer.Option(
+        "local", help="local (process pool) or ray (one Ray task per run)."
+    ),
+    address: str | None = typer.Option(
+        None, help="Ray cluster: auto or HOST:PORT (with --backend ray; --out on shared storage)."
+    ),
     out: Path = typer.Option(..., help="Output folder (runs/, tables, figures)."),
 ) -> None:
-    """Run the variant x seed grid in parallel (resumable) and write tables and figures."""
-    from evodevo.errors import EvodevoError
+    """Run the variant x seed grid in parallel (resumable) and write tables and figures.
+
+    Finished runs (summary.json present) are skipped; interrupted ones resume from their newest
+    checkpoint.
+    """
     from evodevo.neuromod.compare import run_grid, write_report
     from evodevo.neuromod.variants import get_variant
     from evodevo.parallel import set_single_thread
@@ -200,7 +209,13 @@ def compare(
     seed_list = parse_seeds(seeds)
     cfg = _load(config, tasks, episodes_scale, set_)
     set_single_thread()
-    done = run_grid(cfg, names, seed_list, out, workers=workers)
+    if workers < 1:
+        raise EvodevoError(f"--workers {workers} must be at least 1")
+    if backend not in ("local", "ray"):
+        raise EvodevoError(f"--backend {backend!r} is not known; choose local or ray")
+    if address is not None and backend != "ray":
+        raise EvodevoError("--address only goes with --backend ray")
+    done = run_grid(cfg, names, seed_list, out, workers=workers, backend=backend, address=address)
     typer.echo(f"trained {len(done)} run(s); writing tables and figures")
     report = write_report(out)
     typer.echo(f"wrote {report}")
@@ -233,7 +248,6 @@ def contrast(
     variant: str = typer.Option("biarm", help="Which variant's runs to contrast."),
 ) -> None:
     """Print a Markdown table contrasting one variant under several settings (saved runs only)."""
-    from evodevo.errors import EvodevoError
     from evodevo.neuromod.compare import contrast_table
 
     pairs = {}

@@ -1,8 +1,10 @@
 """The comparison grid and Tables 3.2-3.5 (SPEC §1.7, §6).
 
 :func:`run_grid` trains every (variant, seed) pair in ``DIR/runs/{variant}__s{seed}/`` over a
-:class:`~evodevo.parallel.WorkerPool` (finished runs are skipped and interrupted ones resumed,
-so the grid itself is resumable). :func:`write_report` reads the saved run files only and
+:class:`~evodevo.parallel.WorkerPool` of local processes or over Ray
+(:func:`~evodevo.parallel.make_pool`); finished runs are skipped and interrupted ones resume
+from their newest checkpoint, so the grid itself is resumable, and every run's numbers depend
+on its variant and seed only, not on where it ran. :func:`write_report` reads the saved run files only and
 writes the tables as Markdown and CSV next to the figures, with the thesis' numbers beside ours.
 """
 
@@ -20,7 +22,7 @@ from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.evaluation import improvement, retention
 from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4, TABLE_3_5
-from evodevo.parallel import WorkerPool
+from evodevo.parallel import make_pool
 from evodevo.runs import RunDir, atomic_write_text, read_json
 from evodevo.stats import summarise
 
@@ -36,12 +38,12 @@ def run_dir_name(variant: str, seed: int) -> str:
 
 def _run_item(item: tuple[str, int, dict[str, Any], str]) -> str:
     """Worker body: train one (variant, seed) into its folder, resuming if interrupted."""
-    from evodevo.neuromod.checkpoint import latest_checkpoint
+    from evodevo.neuromod.checkpoint import latest_resume_point
     from evodevo.neuromod.trainer import train
 
     variant, seed, cfg_dict, out = item
     cfg = from_dict(BiarmConfig, cfg_dict)
-    resume = latest_checkpoint(Path(out) / "checkpoints") is not None
+    resume = latest_resume_point(Path(out) / "checkpoints") is not None
     train(cfg, variant, seed, out, resume=resume)
     return out
 
@@ -52,8 +54,21 @@ def run_grid(
     seeds: Sequence[int],
     out: str | Path,
     workers: int = 1,
+    backend: str = "local",
+    address: str | None = None,
 ) -> list[str]:
-    """Train the missing runs of the grid; returns the run folders that were (re)run."""
+    """Train the missing runs of the grid; returns the run folders that were (re)run.
+
+    Args:
+        cfg: the config every run shares.
+        variants: variant names.
+        seeds: run seeds.
+        out: the grid folder (runs go to ``out/runs/{variant}__s{seed}``).
+        workers: parallel runs (processes, or Ray actors of one CPU each).
+        backend: ``"local"`` (process pool) or ``"ray"``; the numbers are the same.
+        address: Ray cluster (``"auto"`` or ``HOST:PORT``); None starts a private local Ray.
+            On a cluster, ``out`` must be a path every node sees (a shared file system).
+    """
     from evodevo.config import to_dict
     from evodevo.neuromod.tasks import resolve_tasks
     from evodevo.neuromod.variants import get_variant
@@ -73,8 +88,8 @@ def run_grid(
             items.append((v, int(s), cfg_dict, str(folder)))
     if not items:
         return []
-    with WorkerPool(min(workers, len(items))) as pool:
-        return pool.map(_run_item, items)
+    with make_pool(backend, min(workers, len(items)), address=address) as pool:
+        return list(pool.map(_run_item, items))
 
 
 def collect(out: str | Path) -> dict[str, dict[int, dict[str, Any]]]:
