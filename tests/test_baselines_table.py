@@ -165,3 +165,31 @@ def test_refuses_mixed_test_seeds_untested_runs_and_other_kinds(runs, tmp_path):
         build_table([biarm])
     with pytest.raises(EvodevoError, match="no run directory"):
         build_table([])
+
+
+def test_a_noisy_grn_test_supplies_its_clean_result(runs):
+    """`grn evaluate --noise S` stores the clean test of the same episodes under "clean"."""
+    grn0 = runs[0]
+    clean = json.loads((grn0 / "eval_test_0.json").read_text())
+    (grn0 / "eval_test_0.json").unlink()
+    lo, hi = wilson_interval(9, 40)
+    noisy = {
+        "success_rate": 9 / 40,
+        "ci_low": lo,
+        "ci_high": hi,
+        "successes": 9,
+        "episodes": 40,
+        "objects": "test",
+        "test_seed": 10_000,
+        "noise": 0.03,
+        "clean": {k: clean[k] for k in ("successes", "success_rate", "ci_low", "ci_high")},
+    }
+    (grn0 / "eval_test_0.03.json").write_text(json.dumps(noisy))
+    from evodevo.baselines.table_4_2 import read_run
+
+    row = read_run(grn0)
+    assert (row.successes, row.episodes) == (24, 40)  # the clean numbers, not the noisy 9/40
+    assert row.success_rate == pytest.approx(0.6)
+    (grn0 / "eval_test_0.03.json").unlink()
+    with pytest.raises(EvodevoError, match="no test result"):
+        read_run(grn0)

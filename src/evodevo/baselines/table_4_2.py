@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 from evodevo.errors import EvodevoError
 from evodevo.runs import RunDir, atomic_write_text, read_json
@@ -90,6 +91,33 @@ def _first_reach(rows: list[dict[str, str]], t_key: str, s_key: str, target: flo
     return None
 
 
+def _clean_result(run: RunDir, objects: str, kind: str | None) -> dict[str, Any]:
+    """The clean test result: ``eval_<objects>_0.json``, else the clean part of a noisy test.
+
+    A noisy ``grn evaluate`` (``--noise S``) also tests the same episodes without noise and
+    stores that result under ``"clean"`` of ``eval_<objects>_<S>.json``; it is the same
+    measurement as a separate clean test, so it is used rather than run twice.
+    """
+    eval_path = run / f"eval_{objects}_0.json"
+    if eval_path.is_file():
+        return dict(read_json(eval_path))
+    for noisy in sorted(run.path.glob(f"eval_{objects}_*.json")):
+        ev = read_json(noisy)
+        clean = ev.get("clean") if isinstance(ev, dict) else None
+        if isinstance(clean, dict):
+            return {
+                **{k: clean[k] for k in ("successes", "success_rate", "ci_low", "ci_high")},
+                "episodes": ev["episodes"],
+                "objects": ev["objects"],
+                "test_seed": ev["test_seed"],
+            }
+    cmd = "grn evaluate" if kind == "grn" else "baselines evaluate"
+    raise EvodevoError(
+        f"{str(run.path)!r} has no test result on {objects} objects ({eval_path.name}); "
+        f"run `evodevo {cmd} {run.path} --objects {objects}` first"
+    )
+
+
 def read_run(path: str | Path, objects: str = "test", target: float = 0.5) -> RunRow:
     """Read one tested run directory (GRN or Kuka baseline) into a :class:`RunRow`."""
     run = RunDir(path, create=False)
@@ -112,14 +140,7 @@ def read_run(path: str | Path, objects: str = "test", target: float = 0.5) -> Ru
             "`grn evolve` and `baselines kuka`"
         )
     summary = run.read_summary()
-    eval_path = run / f"eval_{objects}_0.json"
-    if not eval_path.is_file():
-        cmd = "grn evaluate" if kind == "grn" else "baselines evaluate"
-        raise EvodevoError(
-            f"{str(run.path)!r} has no test result on {objects} objects ({eval_path.name}); "
-            f"run `evodevo {cmd} {run.path} --objects {objects}` first"
-        )
-    ev = read_json(eval_path)
+    ev = _clean_result(run, objects, kind)
     return RunRow(
         method=method,
         seed=int(cfg.get("seed", 0)),
