@@ -56,15 +56,20 @@ def run_baseline(
     workers: int = 1,
     resume: bool = False,
     quiet: bool = False,
+    backend: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Train (or, for zero/random, just record) the baseline ``cfg.method`` into ``out``.
 
     Args:
         cfg: the resolved config.
         out: run directory (created).
-        workers: evaluator worker processes (NEAT; SB3 trains on one env in this process).
+        workers: evaluator worker processes or Ray actors (NEAT; SB3 trains on one env in
+            this process).
         resume: continue the run in ``out`` from its last checkpoint (same config).
         quiet: no progress lines.
+        backend: "local" or "ray": where NEAT's evaluator runs (the same numbers either way).
+        address: Ray cluster ("auto" or HOST:PORT); None starts a private local Ray.
 
     Returns:
         The run's ``summary.json`` content.
@@ -96,7 +101,9 @@ def run_baseline(
     if cfg.method == "neat":
         from evodevo.baselines.neat_kuka import train_neat
 
-        return train_neat(cfg, run, workers=workers, resume=resume, quiet=quiet)
+        return train_neat(
+            cfg, run, workers=workers, resume=resume, quiet=quiet, backend=backend, address=address
+        )
     summary: dict[str, Any] = {
         "kind": "baseline_kuka",
         "method": cfg.method,

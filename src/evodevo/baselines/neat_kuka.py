@@ -295,8 +295,13 @@ def train_neat(
     workers: int = 1,
     resume: bool = False,
     quiet: bool = False,
+    backend: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Evolve NEAT networks per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict.
+
+    Genomes are scored by the GRN's :class:`~evodevo.grn.evaluator.Evaluator` over ``workers``
+    processes (``backend="local"``) or Ray actors (``backend="ray"``, cluster ``address``).
 
     Budget: ``budget.env_steps`` and/or ``budget.minutes`` (checked after every generation, so a
     run ends within one generation past it), else ``neat.generations``.
@@ -309,7 +314,7 @@ def train_neat(
     else:
         encoder = Encoder.from_seed(cfg.seed)
         encoder.save(run / "encoder.pt")
-    with Evaluator(ecfg, encoder, workers=workers) as ev:
+    with Evaluator(ecfg, encoder, workers=workers, backend=backend, address=address) as ev:
         if resume:
             pop, state = _restore(run)
             ini = str(run / NEAT_INI)

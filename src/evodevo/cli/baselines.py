@@ -8,12 +8,12 @@ User errors raise :class:`~evodevo.errors.EvodevoError`, printed by the top-leve
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import typer
 
+from evodevo.cli.common import ADDRESS_HELP, BACKEND_HELP, add_evaluate_command, check_backend
 from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
@@ -60,11 +60,18 @@ def kuka(
     config: Path | None = typer.Option(
         None, "--config", help="YAML config (configs/baselines_kuka.yaml)."
     ),
-    workers: int = typer.Option(1, help="Evaluator worker processes (NEAT)."),
+    workers: int = typer.Option(1, help="Evaluator worker processes or Ray actors (NEAT)."),
+    backend: str = typer.Option("local", help=BACKEND_HELP + " NEAT only."),
+    address: str | None = typer.Option(None, help=ADDRESS_HELP),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress lines."),
 ) -> None:
-    """Train one Kuka baseline into OUT (config.json, summary.json, learning_curve.csv, model)."""
+    """Train one Kuka baseline into OUT (config.json, summary.json, learning_curve.csv, model).
+
+    NEAT evaluates its genomes through the GRN's evaluator (``--workers``, ``--backend ray``);
+    PPO and TD3 train in this process (Stable-Baselines3), so ``--backend`` applies to them only
+    in ``baselines evaluate``.
+    """
     from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
     from evodevo.baselines.kuka_runner import run_baseline
     from evodevo.config import load_config
@@ -84,8 +91,12 @@ def kuka(
         if budget_steps is not None:
             raise EvodevoError("--budget-from and --budget-steps contradict each other; give one")
         budget_steps = _budget_from(budget_from, budget_scale)
-    if workers < 1:
-        raise EvodevoError(f"--workers {workers} must be >= 1")
+    check_backend(backend, address, workers)
+    if backend != "local" and method != "neat":
+        raise EvodevoError(
+            f"--backend {backend} applies to NEAT only: {method} trains in this process; "
+            "use --backend ray with `evodevo baselines evaluate` to test it on Ray"
+        )
     ov: dict[str, Any] = {"method": method}
     if seed is not None:
         ov["seed"] = seed
@@ -102,7 +113,9 @@ def kuka(
         cfg = load_config(KukaBaselineConfig, None, _merge(saved.get("config", {}), ov))
     else:
         cfg = load_config(KukaBaselineConfig, config, ov)
-    summary = run_baseline(cfg, out, workers=workers, resume=resume, quiet=quiet)
+    summary = run_baseline(
+        cfg, out, workers=workers, resume=resume, quiet=quiet, backend=backend, address=address
+    )
     reach = summary.get("time_to_target_s")
     typer.echo(
         f"{cfg.method}: {summary['env_steps']} env steps, {summary['wall_s']:.0f} s training"
@@ -112,40 +125,18 @@ def kuka(
     )
 
 
-@app.command()
-def evaluate(
-    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo baselines kuka`."),
-    episodes: int | None = typer.Option(None, help="Test episodes [40]."),
-    objects: str = typer.Option("test", help="test (held-out objects) or train."),
-    noise: float = typer.Option(0.0, help="Visual-feature noise std (NEAT only)."),
-    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
-    workers: int = typer.Option(1, help="Worker processes."),
-    baselines: bool = typer.Option(
-        True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
-    ),
-    baselines_from: Path | None = typer.Option(
-        None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
-    ),
-    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
-) -> None:
-    """Test a baseline on the fixed test seeds with the GRN's evaluate code (SPEC §2.5, §4)."""
+def _check_baseline_run(run_dir: Path) -> None:
+    """A clear error when RUN_DIR holds another kind of run."""
     from evodevo.baselines.kuka_runner import read_baseline_config
-    from evodevo.grn.evaluation import evaluate_run
-    from evodevo.parallel import set_single_thread
     from evodevo.runs import RunDir
 
-    set_single_thread()
-    read_baseline_config(RunDir(run_dir, create=False))  # a clear error for another kind of run
-    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines, baselines_from)
-    if as_json:
-        typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
-        return
-    typer.echo(
-        f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']}, "
-        f"noise {noise:g}"
-    )
-    for name, r in [(res["controller"], res), *res["baselines"].items()]:
-        typer.echo(
-            f"  {name:<8} {100 * r['success_rate']:5.1f} % "
-            f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] ({r['successes']} successes)"
-        )
+    read_baseline_config(RunDir(run_dir, create=False))
+
+
+add_evaluate_command(
+    app,
+    help="Test a baseline on the fixed test seeds with the GRN's evaluate code (SPEC §2.5, §4).",
+    run_help="Run directory of `evodevo baselines kuka`.",
+    noise_help="Visual-feature noise std (NEAT only).",
+    check_run=_check_baseline_run,
+)

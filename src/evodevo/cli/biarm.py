@@ -16,7 +16,7 @@ from typing import Any
 
 import typer
 
-from evodevo.cli.common import parse_list, parse_seeds
+from evodevo.cli.common import ADDRESS_HELP, check_backend, parse_list, parse_seeds
 from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
@@ -188,7 +188,7 @@ def compare(
         "local", help="local (process pool) or ray (one Ray task per run)."
     ),
     address: str | None = typer.Option(
-        None, help="Ray cluster: auto or HOST:PORT (with --backend ray; --out on shared storage)."
+        None, help=ADDRESS_HELP + " On a cluster --out must be on storage every node sees."
     ),
     out: Path = typer.Option(..., help="Output folder (runs/, tables, figures)."),
 ) -> None:
@@ -209,12 +209,7 @@ def compare(
     seed_list = parse_seeds(seeds)
     cfg = _load(config, tasks, episodes_scale, set_)
     set_single_thread()
-    if workers < 1:
-        raise EvodevoError(f"--workers {workers} must be at least 1")
-    if backend not in ("local", "ray"):
-        raise EvodevoError(f"--backend {backend!r} is not known; choose local or ray")
-    if address is not None and backend != "ray":
-        raise EvodevoError("--address only goes with --backend ray")
+    check_backend(backend, address, workers)
     done = run_grid(cfg, names, seed_list, out, workers=workers, backend=backend, address=address)
     typer.echo(f"trained {len(done)} run(s); writing tables and figures")
     report = write_report(out)

@@ -1,6 +1,13 @@
-"""Helpers shared by the CLI sub-commands: seed ranges, list options, process set-up."""
+"""Helpers shared by the CLI sub-commands: seed ranges, list options, backends, ``evaluate``."""
 
 from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import typer
 
 from evodevo.errors import EvodevoError
 
@@ -36,3 +43,109 @@ def parse_list(text: str | None) -> list[str] | None:
         return None
     items = [t.strip() for t in text.split(",") if t.strip()]
     return items or None
+
+
+# ---------------------------------------------------------------------------- backends
+#: Help of ``--backend`` and ``--address`` (every command that spreads work over workers).
+BACKEND_HELP = "local (in-process / process pool) or ray (Ray actors)."
+ADDRESS_HELP = "Ray cluster: auto or HOST:PORT (with --backend ray; default: a private local Ray)."
+
+
+def check_backend(backend: str, address: str | None, workers: int) -> None:
+    """Reject a bad ``--backend``/``--address``/``--workers`` before any work starts."""
+    if workers < 1:
+        raise EvodevoError(f"--workers {workers} must be at least 1")
+    if backend not in ("local", "ray"):
+        raise EvodevoError(f"--backend {backend!r} is not known; choose local or ray")
+    if address is not None and backend != "ray":
+        raise EvodevoError("--address only goes with --backend ray")
+
+
+# ---------------------------------------------------------------------------- evaluate
+def format_rate(name: str, r: Mapping[str, Any]) -> str:
+    """``  name  55.0 % [40.0, 69.2] (22 successes)`` of a success-rate dict."""
+    return (
+        f"  {name:<16} {100 * r['success_rate']:5.1f} % "
+        f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] ({r['successes']} successes)"
+    )
+
+
+def add_evaluate_command(
+    app: typer.Typer,
+    *,
+    help: str,
+    run_help: str,
+    noise_help: str,
+    label: str | None = None,
+    check_run: Callable[[Path], None] | None = None,
+) -> None:
+    """Register the ``evaluate`` command shared by ``evodevo grn`` and ``evodevo baselines``.
+
+    Both test a run directory with :func:`evodevo.grn.evaluation.evaluate_run` (the same fixed
+    test seeds, the trivial policies beside it) and print the same lines.
+
+    Args:
+        app: the sub-command group.
+        help: the command's help text.
+        run_help: help of the RUN_DIR argument.
+        noise_help: help of ``--noise``.
+        label: name printed for the tested controller (None: the run's controller kind).
+        check_run: called with RUN_DIR first (a clear error for another kind of run).
+    """
+
+    def evaluate(
+        run_dir: Path = typer.Argument(..., help=run_help),
+        episodes: int | None = typer.Option(None, help="Test episodes [40]."),
+        objects: str = typer.Option("test", help="test (held-out objects) or train."),
+        noise: float = typer.Option(0.0, help=noise_help),
+        seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+        workers: int = typer.Option(1, help="Worker processes or Ray actors."),
+        backend: str = typer.Option("local", help=BACKEND_HELP),
+        address: str | None = typer.Option(None, help=ADDRESS_HELP),
+        baselines: bool = typer.Option(
+            True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
+        ),
+        baselines_from: Path | None = typer.Option(
+            None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
+        ),
+        as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
+    ) -> None:
+        from evodevo.grn.evaluation import evaluate_run
+        from evodevo.parallel import set_single_thread
+
+        set_single_thread()
+        check_backend(backend, address, workers)
+        if check_run is not None:
+            check_run(run_dir)
+        res = evaluate_run(
+            run_dir,
+            episodes,
+            objects,
+            noise,
+            seed,
+            workers,
+            baselines,
+            baselines_from,
+            backend=backend,
+            address=address,
+        )
+        if as_json:
+            typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
+            return
+        name = label if label is not None else str(res["controller"])
+        typer.echo(
+            f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']}, "
+            f"noise {noise:g}"
+        )
+        typer.echo(format_rate(name, res))
+        if "clean" in res:
+            typer.echo(format_rate(f"{name} (clean)", res["clean"]))
+            if res.get("retention") is not None:
+                typer.echo(f"  retention noisy/clean: {res['retention']:.2f}")
+        for base, r in res["baselines"].items():
+            typer.echo(format_rate(base, r))
+
+    app.command("evaluate", help=help)(evaluate)
+
+
+__all__ += ["BACKEND_HELP", "ADDRESS_HELP", "check_backend", "format_rate", "add_evaluate_command"]

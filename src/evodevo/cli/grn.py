@@ -6,12 +6,12 @@ Every command limits torch/BLAS to one thread first (``set_single_thread``); use
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import typer
 
+from evodevo.cli.common import ADDRESS_HELP, BACKEND_HELP, add_evaluate_command, format_rate
 from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
@@ -72,8 +72,8 @@ def evolve(
     open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress line per generation."),
-    backend: str = typer.Option("local", help="local (process pool) or ray (Ray actors)."),
-    address: str | None = typer.Option(None, help="Ray cluster: auto or HOST:PORT (with --backend ray)."),
+    backend: str = typer.Option("local", help=BACKEND_HELP),
+    address: str | None = typer.Option(None, help=ADDRESS_HELP),
 ) -> None:
     """Evolve a GRN (Algorithm 3) into OUT: best_genome.npz, encoder.pt, history.csv, summary.json."""
     from evodevo.config import load_config
@@ -90,7 +90,13 @@ def evolve(
     else:
         cfg = load_config(GrnConfig, config, ov)
     summary = evolve_run(
-        cfg, out, workers=workers, resume=resume, progress=not quiet, backend=backend, address=address
+        cfg,
+        out,
+        workers=workers,
+        resume=resume,
+        progress=not quiet,
+        backend=backend,
+        address=address,
     )
     typer.echo(
         f"{summary['generations_run']} generations, {summary['episodes_run']} episodes, "
@@ -99,47 +105,14 @@ def evolve(
     )
 
 
-@app.command()
-def evaluate(
-    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
-    episodes: int | None = typer.Option(None, help="Test episodes [40]."),
-    objects: str = typer.Option("test", help="test (held-out objects) or train."),
-    noise: float = typer.Option(0.0, help="Visual-feature noise std (0.03 = robustness test)."),
-    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
-    workers: int = typer.Option(1, help="Worker processes."),
-    baselines: bool = typer.Option(
-        True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
-    ),
-    baselines_from: Path | None = typer.Option(
-        None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
-    ),
-    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
-) -> None:
-    """Test the best genome on fixed seeds, beside the all-zero and random policies (SPEC §2.5)."""
-    from evodevo.grn.evaluation import evaluate_run
-    from evodevo.parallel import set_single_thread
-
-    set_single_thread()
-    res = evaluate_run(run_dir, episodes, objects, noise, seed, workers, baselines, baselines_from)
-    if as_json:
-        typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
-        return
-    n = res["episodes"]
-    typer.echo(f"{n} episodes on {objects} objects, test seed {res['test_seed']}, noise {noise:g}")
-    typer.echo(_fmt_rate("genome", res))
-    if "clean" in res:
-        typer.echo(_fmt_rate("genome (clean)", res["clean"]))
-        if res.get("retention") is not None:
-            typer.echo(f"  retention noisy/clean: {res['retention']:.2f}")
-    for name, b in res["baselines"].items():
-        typer.echo(_fmt_rate(name, b))
-
-
-def _fmt_rate(name: str, r: dict[str, Any]) -> str:
-    return (
-        f"  {name:<16} {100 * r['success_rate']:5.1f} % "
-        f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] ({r['successes']} successes)"
-    )
+add_evaluate_command(
+    app,
+    help="Test the best genome on fixed seeds, beside the all-zero and random policies "
+    "(SPEC §2.5).",
+    run_help="Run directory of `evodevo grn evolve`.",
+    noise_help="Visual-feature noise std (0.03 = robustness test).",
+    label="genome",
+)
 
 
 @app.command()
@@ -160,7 +133,7 @@ def baselines(
     set_single_thread()
     res = evaluate_baselines(load_config(GrnConfig, config), out, episodes, objects, seed, workers)
     for name, b in res["baselines"].items():
-        typer.echo(_fmt_rate(name, b))
+        typer.echo(format_rate(name, b))
 
 
 @app.command()

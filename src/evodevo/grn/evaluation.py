@@ -121,6 +121,8 @@ def evaluate_run(
     workers: int = 1,
     baselines: bool = True,
     baselines_from: str | Path | None = None,
+    backend: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Test a run's best genome (SPEC §2.5) and save the result files; returns the result dict.
 
@@ -134,6 +136,8 @@ def evaluate_run(
         baselines: also run the all-zero and uniform-random policies on the same seeds.
         baselines_from: a file of :func:`evaluate_baselines` for the same episodes, used
             instead of running the trivial policies again.
+        backend: "local" (process pool) or "ray" (Ray actors); the results are the same.
+        address: Ray cluster ("auto" or HOST:PORT); None starts a private local Ray.
     """
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
@@ -149,7 +153,7 @@ def evaluate_run(
     clean_eps = test_episodes(test_seed, n, is_test)
     rows: list[dict[str, Any]] = []
     out: dict[str, Any] = {}
-    with Evaluator(cfg, loaded.encoder, workers=workers) as ev:
+    with Evaluator(cfg, loaded.encoder, workers=workers, backend=backend, address=address) as ev:
         clean = ev.evaluate([loaded.genome], clean_eps)
         rows += _rows("genome", clean_eps, clean)
         main = clean
