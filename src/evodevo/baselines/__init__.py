@@ -6,4 +6,5 @@
 * :mod:`~evodevo.baselines.policies` — trained baselines as policies of the GRN evaluator.
 * :mod:`~evodevo.baselines.kuka_runner` — run directories: train, resume, load for evaluation.
 * :mod:`~evodevo.baselines.table_4_2` — the comparison table (Markdown and CSV).
+* :mod:`~evodevo.baselines.sb3_dqn_tasks` — BIARM's ``sb3-dqn`` baseline: an SB3 DQN per task.
 """

@@ -2,7 +2,10 @@
 
 :class:`BiarmAgent` is the same class for every variant; the :class:`Variant` decides whether
 laterals are gated, whether the modules run (Eq. 3.1-3.6), drive the learning rate (Eq. 3.7)
-and the context gate (Eq. 3.8), and which modules are ablated.
+and the context gate (Eq. 3.8), and which modules are ablated. The ``finetune`` and ``ewc``
+baselines (issue 4) swap the column stack for one shared body with per-task heads
+(:class:`~evodevo.neuromod.shared_net.SharedNet`); ``ewc`` adds the Eq. 2.4 penalty to every
+gradient step and consolidates the Fisher at the end of each task (:meth:`end_task`).
 
 Hot path (per environment step): :meth:`act` (greedy forward under ``no_grad`` on a
 preallocated tensor), :meth:`observe` (module update in NumPy), :meth:`update` (one DQN
@@ -19,9 +22,11 @@ import torch
 
 from evodevo.neuromod.columns import Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.ewc import EWC
 from evodevo.neuromod.lr_modulation import set_lr
 from evodevo.neuromod.modules import Neuromodulators
-from evodevo.neuromod.replay import Batch
+from evodevo.neuromod.replay import Batch, ReplayBuffer
+from evodevo.neuromod.shared_net import HeadView, SharedNet
 from evodevo.neuromod.variants import Variant
 
 __all__ = ["BiarmAgent"]
@@ -54,19 +59,32 @@ class BiarmAgent:
             self._lr_w = np.asarray(lr_w, dtype=np.float64)
             self.states_t = None
         self.learned = variant.modulated and variant.gated and cfg.modules.learning == "learned"
-        self.net = ProgressiveNet(
-            obs_dim=obs_dim,
-            hidden=cfg.network.hidden,
-            gated=variant.gated,
-            adapter_dim=cfg.network.adapter_dim,
-            seed=seed,
-            context_weights=ctx_w,
-            learn_context=cfg.modules.learn_context_weights,
-        )
+        self.net: ProgressiveNet | SharedNet
+        if variant.architecture == "shared":
+            self.net = SharedNet(obs_dim, cfg.network.hidden, seed)
+        elif variant.architecture == "progressive":
+            self.net = ProgressiveNet(
+                obs_dim=obs_dim,
+                hidden=cfg.network.hidden,
+                gated=variant.gated,
+                adapter_dim=cfg.network.adapter_dim,
+                seed=seed,
+                context_weights=ctx_w,
+                learn_context=cfg.modules.learn_context_weights,
+            )
+        else:
+            raise ValueError(
+                f"variant {variant.name!r} ({variant.architecture}) is not trained by BiarmAgent"
+            )
+        self.progressive = isinstance(self.net, ProgressiveNet)
+        self.ewc: EWC | None = None
+        if variant.consolidation == "ewc":
+            assert isinstance(self.net, SharedNet)
+            self.ewc = EWC(list(self.net.shared_parameters()), cfg.ewc.lam)
         self.obs_t = torch.zeros(1, obs_dim)
         self.obs_np = self.obs_t.numpy()[0]
         self.col = -1
-        self.target: Column | None = None
+        self.target: Column | HeadView | None = None
         self.optimizer: torch.optim.Optimizer | None = None
         self.params: list[torch.nn.Parameter] = []
         self.grad_steps = 0
@@ -85,6 +103,19 @@ class BiarmAgent:
         if self.modules is not None:
             self.modules.start_task()
 
+    def end_task(self, buffer: ReplayBuffer) -> None:
+        """End of the current task: EWC consolidates its Fisher from ``buffer`` (else no-op).
+
+        The Fisher is averaged over the ``ewc.fisher_samples`` newest states of the task's
+        replay buffer (:mod:`evodevo.neuromod.ewc`).
+        """
+        if self.ewc is None or buffer.size == 0:
+            return
+        n = min(buffer.size, self.cfg.ewc.fisher_samples)
+        idx = (buffer.pos - 1 - np.arange(n)) % buffer.capacity
+        states = torch.from_numpy(buffer.data[idx, : buffer.obs_dim].copy())
+        self.ewc.consolidate(self.net.current, states, self.cfg.ewc.fisher_chunk)
+
     def end_training(self) -> None:
         """Freeze everything after the last task."""
         self.net.freeze_all()
@@ -99,10 +130,13 @@ class BiarmAgent:
 
     def gate(self) -> float:
         """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
-        if self.states_t is None or not self.net.gated or self.col < 1:
+        net = self.net
+        if self.states_t is None or not isinstance(net, ProgressiveNet) or not net.gated:
+            return float("nan")
+        if self.col < 1:
             return float("nan")
         with torch.no_grad():
-            return float(self.net.current.context(self.states_t))
+            return float(net.current.context(self.states_t))
 
     def act(self, eps: float, rng: np.random.Generator) -> int:
         """Epsilon-greedy action for the observation already written into ``obs_np``."""
@@ -126,7 +160,8 @@ class BiarmAgent:
         assert target is not None and self.optimizer is not None
         st = self.states_t
         bsz = obs.shape[0]
-        if col > 0:
+        if col > 0 and isinstance(self.net, ProgressiveNet):
+            assert isinstance(column, Column) and isinstance(target, Column)
             h1, h2 = self.net.features(torch.cat((obs, nobs)), col, st)
             h1_on, h2_on, h1_nx, h2_nx = h1[:bsz], h2[:bsz], h1[bsz:], h2[bsz:]
             ctx_on = ctx_nx = None
@@ -150,6 +185,8 @@ class BiarmAgent:
         with torch.no_grad():
             y = rew + dqn.gamma * (1.0 - term) * q_next
         loss = huber(q, y, dqn.huber_delta)
+        if self.ewc is not None:
+            loss = loss + self.ewc.penalty()
         opt = self.optimizer
         for p in self.params:
             p.grad = None
@@ -183,6 +220,8 @@ class BiarmAgent:
         if self.modules is not None:
             out["modules"] = self.modules.state_dict()
             out["modules_extra"] = self.modules.extra_state()
+        if self.ewc is not None:
+            out["ewc"] = self.ewc.state_dict()
         return out
 
     def load_state(self, data: dict[str, Any]) -> None:
@@ -195,6 +234,8 @@ class BiarmAgent:
         if self.modules is not None:
             self.modules.load_state_dict(data["modules"])
             self.modules.load_extra_state(data["modules_extra"])
+        if self.ewc is not None:
+            self.ewc.load_state_dict(data["ewc"])
 
     def train_state(self) -> dict[str, Any]:
         """:meth:`state` plus what continuing the current task needs (mid-task checkpoints):
@@ -217,6 +258,8 @@ class BiarmAgent:
         if self.modules is not None:
             self.modules.load_state_dict(data["modules"])
             self.modules.load_extra_state(data["modules_extra"])
+        if self.ewc is not None:
+            self.ewc.load_state_dict(data["ewc"])
         assert self.target is not None and self.optimizer is not None
         self.target.load_state_dict(data["target"])
         self.optimizer.load_state_dict(data["optimizer"])

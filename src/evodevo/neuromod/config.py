@@ -27,6 +27,7 @@ __all__ = [
     "NetworkConfig",
     "ModuleConfig",
     "EvalConfig",
+    "EWCConfig",
     "BiarmConfig",
     "THESIS_TASKS",
     "MODULE_NAMES",
@@ -182,6 +183,28 @@ class EvalConfig:
 
 
 @dataclass
+class EWCConfig:
+    """Elastic Weight Consolidation of the ``ewc`` variant (thesis Eq. 2.4; Kirkpatrick et al.
+    2017). See :mod:`evodevo.neuromod.ewc` for the Fisher estimate."""
+
+    lam: float = doc(
+        1000.0, "lambda of Eq. 2.4: strength of the penalty (lambda/2) F (theta - theta*)^2"
+    )
+    fisher_samples: int = doc(
+        10_000, "replay states (newest first) the diagonal Fisher is averaged over at a task's end"
+    )
+    fisher_chunk: int = doc(500, "states per vectorised per-sample-gradient chunk (memory only)")
+
+    def validate(self) -> None:
+        if not (self.lam >= 0 and math.isfinite(self.lam)):
+            raise ConfigError(f"ewc.lam={self.lam} must be a finite number >= 0")
+        if self.fisher_samples < 1:
+            raise ConfigError(f"ewc.fisher_samples={self.fisher_samples} must be at least 1")
+        if self.fisher_chunk < 1:
+            raise ConfigError(f"ewc.fisher_chunk={self.fisher_chunk} must be at least 1")
+
+
+@dataclass
 class BiarmConfig:
     """Everything a BIARM/PNN run needs (SPEC §1). The variant is chosen separately."""
 
@@ -197,6 +220,7 @@ class BiarmConfig:
     network: NetworkConfig = field(default_factory=NetworkConfig, metadata={"doc": "columns"})
     modules: ModuleConfig = field(default_factory=ModuleConfig, metadata={"doc": "modules"})
     eval: EvalConfig = field(default_factory=EvalConfig, metadata={"doc": "evaluation"})
+    ewc: EWCConfig = field(default_factory=EWCConfig, metadata={"doc": "EWC (ewc variant)"})
 
     def validate(self) -> None:
         if not self.tasks:

@@ -40,6 +40,7 @@ from evodevo.neuromod.checkpoint import (
 )
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, retention
+from evodevo.neuromod.forgetting import record_returns_after
 from evodevo.neuromod.replay import ReplayBuffer
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.variants import Variant, get_variant
@@ -343,6 +344,10 @@ def train(
             :class:`~evodevo.signals.StopRequested`.
     """
     var = get_variant(variant) if isinstance(variant, str) else variant
+    if var.architecture == "sb3":  # a Stable-Baselines3 DQN per task, same run files
+        from evodevo.baselines.sb3_dqn_tasks import train_sb3_tasks
+
+        return train_sb3_tasks(cfg, var, seed, out, resume, hook, on_task, stop)
     specs, d_max = resolve_tasks(cfg)
     run = RunDir(out)
     point = latest_resume_point(run.path / "checkpoints")
@@ -427,6 +432,8 @@ def train(
                     "us_per_step": 1e6 * float(np.median(per_step)) if per_step else math.nan,
                 }
             )
+            agent.end_task(runner.buf)  # EWC: this task's Fisher (a no-op for other variants)
+            record_returns_after(agent, specs, i, results, seeds)  # Acc_{j,i} of Eq. 1.4
             save_checkpoint(
                 run.checkpoints,
                 i,

@@ -1,38 +1,61 @@
-"""The six variants of Chapter 3 as settings, not code paths (SPEC §1.2, §1.5).
+"""The variants of Chapter 3 and the continual-learning baselines, as settings (SPEC §1.2, §1.5).
 
-A variant says whether laterals are gated (BIARM) or plain (PNN), whether the modules run
-and modulate the learning rate, and which modules are ablated (held at 0.5).
+A variant says which network learns the task sequence (``architecture``), whether laterals
+are gated (BIARM) or plain (PNN), whether the modules run and modulate the learning rate,
+which modules are ablated (held at 0.5), and whether a consolidation penalty protects earlier
+tasks (``consolidation``). Every variant except ``sb3-dqn`` runs through the same training
+loop (:mod:`evodevo.neuromod.trainer`); ``sb3-dqn`` is Stable-Baselines3's own DQN, one fresh
+model per task (:mod:`evodevo.baselines.sb3_dqn_tasks`), the "what a standard library gets"
+reference of issue 4.
+
+* ``progressive``: one column per task, earlier columns frozen (SPEC §1.2).
+* ``shared``: ONE 2x128 ReLU body on the padded input (Eq. 3.10) and one linear Q-head per
+  task (:mod:`evodevo.neuromod.shared_net`); the body keeps learning through the sequence
+  (``finetune``), optionally held near each earlier task's optimum by EWC (Eq. 2.4,
+  :mod:`evodevo.neuromod.ewc`).
+* ``sb3``: a single-task SB3 DQN per task.
 
 >>> VARIANTS["no-da"].ablated
 ('DA',)
 >>> get_variant("pnn").modulated
 False
+>>> get_variant("ewc").consolidation
+'ewc'
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["Variant", "VARIANTS", "get_variant"]
+__all__ = ["Variant", "VARIANTS", "CONTINUAL_BASELINES", "get_variant"]
+
+Architecture = Literal["progressive", "shared", "sb3"]
 
 
 @dataclass(frozen=True)
 class Variant:
-    """One row of Tables 3.2 / 3.4.
+    """One row of Tables 3.2 / 3.4 / 3.5 (and the continual baselines of issue 4).
 
     Attributes:
         name: CLI name.
         gated: BIARM gated laterals ``U (alpha * V h)``; else PNN laterals ``U h``.
         modulated: neuromodulator modules run and drive Eq. 3.7 and the context gate.
         ablated: modules held at ``modules.ablated_value`` (SPEC §1.5).
+        architecture: ``progressive`` columns, one ``shared`` body with per-task heads, or
+            an ``sb3`` DQN per task.
+        consolidation: ``ewc`` adds the Eq. 2.4 penalty on the shared body; ``none`` is
+            plain fine-tuning.
     """
 
     name: str
     gated: bool
     modulated: bool
     ablated: tuple[str, ...] = ()
+    architecture: Architecture = "progressive"
+    consolidation: Literal["none", "ewc"] = "none"
 
 
 VARIANTS: dict[str, Variant] = {
@@ -42,7 +65,13 @@ VARIANTS: dict[str, Variant] = {
     "no-5ht": Variant("no-5ht", True, True, ("5HT",)),
     "no-ne": Variant("no-ne", True, True, ("NE",)),
     "no-ach": Variant("no-ach", True, True, ("ACh",)),
+    "finetune": Variant("finetune", False, False, architecture="shared"),
+    "ewc": Variant("ewc", False, False, architecture="shared", consolidation="ewc"),
+    "sb3-dqn": Variant("sb3-dqn", False, False, architecture="sb3"),
 }
+
+#: The continual-learning baselines of issue 4 (part 2), in table order.
+CONTINUAL_BASELINES: tuple[str, ...] = ("finetune", "ewc", "sb3-dqn")
 
 
 def get_variant(name: str) -> Variant:

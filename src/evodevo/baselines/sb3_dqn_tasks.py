@@ -1,0 +1,413 @@
+"""Stable-Baselines3 DQN, one fresh model per task: the ``sb3-dqn`` BIARM baseline (issue 4).
+
+What a standard library gets on the task sequence of SPEC §1 without any continual-learning
+machinery: for every task a new :class:`stable_baselines3.DQN` is built and trained on that
+task alone, then evaluated greedily with the fixed evaluation seeds of SPEC §1.7 right after
+its task ("initial") and, reloaded from its saved file, after the whole sequence ("final").
+Nothing is shared between tasks, so **retention is 1.0 by construction** (deterministic
+environments, fixed seeds, an unchanged model); the baseline is there for the final returns
+each task reaches, not for forgetting.
+
+Settings (SPEC §1.6, the ``dqn`` section of the run config; the same for every variant):
+
+* network: SB3's ``MlpPolicy`` with ``net_arch=[hidden, hidden]`` ReLU (2x128) on the task's
+  own observation (a model per task needs no padding), SB3's default initialisation;
+* Adam at ``dqn.lr`` (1e-3), batch ``dqn.batch_size`` (64), buffer ``dqn.replay_size``
+  (10,000), ``learning_starts`` ``dqn.learning_starts``, one gradient step per environment
+  step, gamma ``dqn.gamma`` (0.99), Huber loss (SB3's smooth L1), gradient-norm clip
+  ``dqn.grad_clip`` (10), hard target update every ``dqn.target_update`` (500) environment
+  steps (SB3 counts environment steps, our trainer gradient steps: they differ by the
+  ``learning_starts`` warm-up only); truncated episodes bootstrap (SB3's
+  ``handle_timeout_termination``);
+* exploration exactly as SPEC §1.6: epsilon starts at ``dqn.eps_start`` and is multiplied by
+  ``dqn.eps_decay`` after each episode, floor ``dqn.eps_min``. SB3's own schedule is linear in
+  the fraction of ``total_timesteps``; we replace ``model.exploration_schedule`` by
+  :class:`EpisodeEpsilon`, which an episode callback decays. (Before ``learning_starts`` SB3
+  acts uniformly at random, as our trainer does with epsilon 1.)
+* budget: the task's episode count (after ``episodes_scale``); :class:`TaskCallback` stops
+  ``learn`` when it is reached (``total_timesteps`` is only an upper bound).
+
+Run files are those of :func:`evodevo.neuromod.trainer.train`: ``config.json``,
+``metrics.csv`` (one row per episode), ``neuromod.csv`` (no modules: blank states, the novelty
+``n_task`` and the constant learning rate, every ``modules.sample_interval`` steps),
+``summary.json`` with the same keys, plus ``checkpoints/sb3_task{i}.zip`` (SB3's own
+``save``) and ``checkpoints/sb3_progress.json`` after every task. ``--resume`` continues after
+the last finished task; an interrupted task is re-run from its start, which gives the same
+numbers because each task is seeded on its own.
+
+Seeding: SB3 draws from the global ``random``/NumPy/torch generators (exploration, replay
+sampling, initialisation) and seeds them itself (``seed=``). To keep library code free of
+global RNG side effects, each task's construction and training run inside
+:func:`scoped_global_rng`, which saves the three global states, lets SB3 seed them from
+``derive(seed, 6, i)`` and restores them afterwards. SB3's logger is replaced by one with no
+output formats, so nothing is written to ``/tmp`` (its default ``SB3-<date>`` folders) or the
+working directory.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import stable_baselines3
+import torch
+from stable_baselines3 import DQN
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import Logger
+
+from evodevo.config import to_dict
+from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
+from evodevo.neuromod.evaluation import eval_seeds, retention
+from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
+from evodevo.neuromod.trainer import METRIC_FIELDS, NEUROMOD_FIELDS, EpisodeInfo, resume_hint
+from evodevo.neuromod.variants import Variant
+from evodevo.runs import CsvAppender, RunDir, read_json, write_json
+from evodevo.seeding import derive
+from evodevo.signals import GracefulStop
+
+__all__ = [
+    "EpisodeEpsilon",
+    "TaskCallback",
+    "scoped_global_rng",
+    "build_dqn",
+    "evaluate_model",
+    "train_sb3_tasks",
+    "PROGRESS_FILE",
+]
+
+#: Key of the per-task SB3 seed: ``derive(seed, SB3_SEED_KEY, task)``.
+SB3_SEED_KEY = 6
+#: Progress file in ``checkpoints/`` (results of the finished tasks).
+PROGRESS_FILE = "sb3_progress.json"
+
+
+def _model_path(run: RunDir, index: int) -> Path:
+    return run.checkpoints / f"sb3_task{index}.zip"
+
+
+@contextmanager
+def scoped_global_rng() -> Iterator[None]:
+    """Run a block that seeds the global ``random``/NumPy/torch RNGs, then restore them."""
+    py_state = random.getstate()
+    np_state = np.random.get_state()
+    with torch.random.fork_rng(devices=[]):
+        try:
+            yield
+        finally:
+            random.setstate(py_state)
+            np.random.set_state(np_state)
+
+
+class EpisodeEpsilon:
+    """SB3 exploration schedule holding SPEC §1.6's per-episode epsilon (not a time schedule).
+
+    >>> e = EpisodeEpsilon(1.0, 0.5, 0.2)
+    >>> e(0.3), e.decay(), e.decay(), e(0.0)
+    (1.0, 0.5, 0.25, 0.25)
+    >>> e.decay()
+    0.2
+    """
+
+    def __init__(self, start: float, decay: float, floor: float) -> None:
+        self.eps = float(start)
+        self.factor = float(decay)
+        self.floor = float(floor)
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.eps
+
+    def decay(self) -> float:
+        """After an episode: ``eps <- max(floor, decay * eps)``; returns the new value."""
+        self.eps = max(self.floor, self.eps * self.factor)
+        return self.eps
+
+
+class TaskCallback(BaseCallback):
+    """Per episode: metrics row, hook, epsilon decay, stop at the budget or on a signal."""
+
+    def __init__(
+        self,
+        spec: TaskSpec,
+        index: int,
+        cfg: BiarmConfig,
+        epsilon: EpisodeEpsilon,
+        step0: int,
+        metrics: CsvAppender | None,
+        neuromod: CsvAppender | None,
+        hook: Callable[[EpisodeInfo], None] | None,
+        stop: GracefulStop | None,
+    ) -> None:
+        super().__init__(verbose=0)
+        self.spec, self.index, self.cfg, self.epsilon = spec, index, cfg, epsilon
+        self.step = step0
+        self.task_steps = 0
+        self.episodes = 0
+        self.metrics, self.neuromod, self.hook, self.stop = metrics, neuromod, hook, stop
+        self.per_step: list[float] = []
+        self.stopped = False
+        self._ep_start_step = 0
+        self._t0 = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        cfg = self.cfg
+        self.step += 1
+        self.task_steps += 1
+        if self.neuromod is not None and self.step % cfg.modules.sample_interval == 0:
+            row: dict[str, Any] = {f"s_{m}": "" for m in MODULE_NAMES}
+            n_task = cfg.modules.novelty_decay**self.task_steps
+            row.update(step=self.step, task=self.index, n_task=f"{n_task:.6g}", gate="")
+            row["lr"] = f"{cfg.dqn.lr:.6g}"
+            self.neuromod.write(row)
+        for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+            if done and "episode" in info:
+                self._end_episode(float(info["episode"]["r"]), int(info["episode"]["l"]))
+        if self.episodes >= self.spec.episodes:
+            return False
+        if self.stop is not None and self.stop.requested:
+            self.stopped = True
+            return False
+        return True
+
+    def _end_episode(self, ret: float, length: int) -> None:
+        now = time.perf_counter()
+        eps = self.epsilon.eps
+        if self._ep_start_step >= self.cfg.dqn.learning_starts:  # every step trained
+            self.per_step.append((now - self._t0) / max(length, 1))
+        self._t0, self._ep_start_step = now, self.task_steps
+        lr = self.cfg.dqn.lr
+        if self.metrics is not None:
+            self.metrics.write(
+                {
+                    "task": self.index,
+                    "env_id": self.spec.env_id,
+                    "episode": self.episodes,
+                    "return": ret,
+                    "length": length,
+                    "epsilon": f"{eps:.6g}",
+                    "lr": f"{lr:.6g}",
+                    "step": self.step,
+                }
+            )
+        if self.hook is not None:
+            self.hook(
+                EpisodeInfo(
+                    self.index,
+                    self.spec.env_id,
+                    self.episodes,
+                    self.spec.episodes,
+                    ret,
+                    length,
+                    eps,
+                    lr,
+                )  # fmt: skip
+            )
+        self.epsilon.decay()
+        self.episodes += 1
+
+
+def build_dqn(cfg: BiarmConfig, env: Any, seed: int) -> DQN:
+    """A fresh SB3 DQN with the settings of SPEC §1.6 (see the module docstring).
+
+    Call inside :func:`scoped_global_rng` (``seed=`` seeds SB3's global generators).
+    """
+    d = cfg.dqn
+    model = DQN(
+        "MlpPolicy",
+        env,
+        learning_rate=d.lr,
+        buffer_size=d.replay_size,
+        learning_starts=d.learning_starts,
+        batch_size=d.batch_size,
+        gamma=d.gamma,
+        train_freq=1,
+        gradient_steps=1,
+        target_update_interval=d.target_update,
+        exploration_initial_eps=d.eps_start,
+        exploration_final_eps=d.eps_min,
+        max_grad_norm=d.grad_clip,
+        policy_kwargs={"net_arch": [cfg.network.hidden, cfg.network.hidden]},
+        seed=seed,
+        device="cpu",
+        verbose=0,
+    )
+    # SB3's default logger creates /tmp/SB3-<date> on learn(); this one records nothing.
+    model.set_logger(Logger(folder=None, output_formats=[]))
+    return model
+
+
+def evaluate_model(model: DQN, spec: TaskSpec, seeds: list[int]) -> list[float]:
+    """Undiscounted returns of greedy episodes of ``model``, one per evaluation seed."""
+    env = make_env(spec.env_id, spec.max_steps)
+    returns = []
+    try:
+        for s in seeds:
+            obs, _ = env.reset(seed=int(s))
+            total = 0.0
+            while True:
+                action, _ = model.predict(obs, deterministic=True)
+                obs, r, term, trunc, _ = env.step(int(action))
+                total += float(r)
+                if term or trunc:
+                    break
+            returns.append(total)
+    finally:
+        env.close()
+    return returns
+
+
+def _train_one(
+    cfg: BiarmConfig,
+    spec: TaskSpec,
+    index: int,
+    seed: int,
+    step0: int,
+    metrics: CsvAppender,
+    neuromod: CsvAppender,
+    hook: Callable[[EpisodeInfo], None] | None,
+    stop: GracefulStop | None,
+) -> tuple[DQN, TaskCallback]:
+    """Build and train task ``index``'s model until its episode budget is spent."""
+    d = cfg.dqn
+    env = make_env(spec.env_id, spec.max_steps)
+    try:
+        with scoped_global_rng():
+            model = build_dqn(cfg, env, derive(seed, SB3_SEED_KEY, index))
+            epsilon = EpisodeEpsilon(d.eps_start, d.eps_decay, d.eps_min)
+            model.exploration_schedule = epsilon
+            model.exploration_rate = epsilon.eps
+            callback = TaskCallback(spec, index, cfg, epsilon, step0, metrics, neuromod, hook, stop)
+            limit = spec.max_steps or 100_000
+            model.learn(spec.episodes * limit + 1, callback=callback)
+    finally:
+        env.close()
+    return model, callback
+
+
+def _check_resume(run: RunDir, var: Variant, seed: int, cfg: BiarmConfig) -> None:
+    theirs = run.read_config().get("config", {})
+    mine = {"variant": var.name, "seed": seed, **to_dict(cfg)}
+    for key in ("variant", "seed", "tasks", "episodes_scale", "dqn", "network"):
+        if theirs.get(key) != mine.get(key):
+            raise CheckpointError(
+                f"--resume: {key} of {str(run.path)!r} ({theirs.get(key)!r}) differs from this "
+                f"run's ({mine.get(key)!r}); use the same options or another --out"
+            )
+
+
+def _keep_rows(run: RunDir, name: str, fields: list[str], tasks_done: int) -> None:
+    """Drop the rows of tasks that did not finish (resume)."""
+    if (run / name).is_file():
+        rows = [r for r in run.read_csv(name) if int(r["task"]) < tasks_done]
+        run.write_csv(name, rows, fields)
+
+
+def train_sb3_tasks(
+    cfg: BiarmConfig,
+    variant: Variant,
+    seed: int,
+    out: str | Path,
+    resume: bool = False,
+    hook: Callable[[EpisodeInfo], None] | None = None,
+    on_task: Callable[[int, TaskSpec], None] | None = None,
+    stop: GracefulStop | None = None,
+) -> dict[str, Any]:
+    """Train one SB3 DQN per task into ``out``; the arguments and the returned summary are
+    those of :func:`evodevo.neuromod.trainer.train`."""
+    specs, d_max = resolve_tasks(cfg)
+    run = RunDir(out)
+    progress_path = run.checkpoints / PROGRESS_FILE
+    if progress_path.is_file() and not resume:
+        raise EvodevoError(
+            f"{str(run.path)!r} already holds checkpoints of a run; pass --resume to continue "
+            "it or choose another --out"
+        )
+    if resume and (run / "config.json").is_file():
+        _check_resume(run, variant, seed, cfg)
+    else:
+        run.write_config({"variant": variant.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
+    results: list[dict[str, Any]] = []
+    step = 0
+    if resume and progress_path.is_file():
+        saved = read_json(progress_path)
+        results, step = list(saved["results"]), int(saved["step"])
+        for name, fields in (("metrics.csv", METRIC_FIELDS), ("neuromod.csv", NEUROMOD_FIELDS)):
+            _keep_rows(run, name, fields, len(results))
+    else:
+        for name in ("metrics.csv", "neuromod.csv"):
+            (run / name).unlink(missing_ok=True)
+    seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
+    hint = resume_hint(run.path)
+    t_start = time.perf_counter()
+    with (
+        CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
+        CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
+    ):
+        for i in range(len(results), len(specs)):
+            spec = specs[i]
+            if on_task is not None:
+                on_task(i, spec)
+            model, cb = _train_one(cfg, spec, i, seed, step, metrics, neuromod, hook, stop)
+            if cb.stopped and stop is not None:
+                stop.check(
+                    f"episode {cb.episodes} of task {i} ({spec.env_id}); the unfinished task "
+                    "re-runs from its start",
+                    hint,
+                )
+            model.save(_model_path(run, i))
+            step = cb.step
+            initial = evaluate_model(model, spec, seeds)
+            results.append(
+                {
+                    "env_id": spec.env_id,
+                    "episodes": spec.episodes,
+                    "max_steps": spec.max_steps,
+                    "train_steps": cb.task_steps,
+                    "end_step": step,
+                    "eval_returns_initial": initial,
+                    "us_per_step": 1e6 * float(np.median(cb.per_step)) if cb.per_step else math.nan,
+                    "returns_after": [float(np.mean(initial))],
+                }
+            )
+            if i < len(specs) - 1:  # Acc_{j,i} of Eq. 1.4: the earlier models, reloaded
+                for j in range(i):
+                    old = DQN.load(_model_path(run, j), device="cpu")
+                    mean = float(np.mean(evaluate_model(old, specs[j], seeds)))
+                    results[j]["returns_after"].append(mean)
+            write_json(progress_path, {"results": results, "step": step})
+            if stop is not None and i + 1 < len(specs):
+                stop.check(f"task {i} ({spec.env_id})", hint)
+    tasks = []
+    for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
+        final = evaluate_model(DQN.load(_model_path(run, i), device="cpu"), spec, seeds)
+        ini_mean = float(np.mean(res["eval_returns_initial"]))
+        fin_mean = float(np.mean(final))
+        tasks.append(
+            {
+                **res,
+                "initial_return": ini_mean,
+                "final_return": fin_mean,
+                "retention": retention(ini_mean, fin_mean),
+                "eval_returns_final": final,
+            }
+        )
+    summary = {
+        "variant": variant.name,
+        "seed": seed,
+        "module_learning": None,
+        "adapter_dim": None,
+        "d_max": d_max,
+        "eval_seeds": seeds,
+        "tasks": tasks,
+        "final_states": None,
+        "wall_seconds": time.perf_counter() - t_start,
+        "sb3_version": stable_baselines3.__version__,
+    }
+    run.write_summary(summary)
+    return summary
