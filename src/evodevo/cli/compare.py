@@ -1,4 +1,5 @@
-"""``evodevo compare``: comparison tables across methods (thesis Table 4.2 for Kuka).
+"""``evodevo compare``: comparison tables across methods (thesis Table 4.2 for Kuka, an
+extended Table 3.2/3.5 for BIARM and its continual-learning baselines).
 
 User errors raise :class:`~evodevo.errors.EvodevoError`, printed by the top-level CLI as one line.
 """
@@ -13,12 +14,14 @@ from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
 
-app = typer.Typer(help="Comparison tables across methods (thesis Table 4.2).", no_args_is_help=True)
+app = typer.Typer(
+    help="Comparison tables across methods (thesis Tables 3.2/3.5 and 4.2).", no_args_is_help=True
+)
 
 
 @app.callback()
 def _group() -> None:
-    """Comparison tables across methods (thesis Table 4.2)."""
+    """Comparison tables across methods (thesis Tables 3.2/3.5 and 4.2)."""
 
 
 @app.command()
@@ -37,3 +40,22 @@ def kuka(
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     write_table(list(run_dirs), out, objects, target)
     typer.echo((out / "table_4_2.md").read_text().rstrip())
+
+
+@app.command()
+def biarm(
+    run_dirs: list[Path] = typer.Argument(
+        ..., help="Finished `biarm train` run directories and/or `biarm compare` folders."
+    ),
+    out: Path = typer.Option(..., "--out", help="Folder for table_continual.md/.csv (created)."),
+) -> None:
+    """Extended Tables 3.2/3.5: every variant's final return, retention and forgetting (Eq. 1.4).
+
+    One row per variant and task: final return mean ± std with a 95 % bootstrap interval over
+    seeds, initial return, retention, the forgetting measure of Eq. 1.4, and the thesis'
+    numbers in their own columns; seeds and budget stated above the table.
+    """
+    from evodevo.neuromod.compare import write_continual_table
+
+    md = write_continual_table(list(run_dirs), out)
+    typer.echo(md.read_text().rstrip())

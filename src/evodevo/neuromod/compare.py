@@ -6,6 +6,10 @@
 from their newest checkpoint, so the grid itself is resumable, and every run's numbers depend
 on its variant and seed only, not on where it ran. :func:`write_report` reads the saved run files only and
 writes the tables as Markdown and CSV next to the figures, with the thesis' numbers beside ours.
+:func:`write_continual_table` (``evodevo compare biarm``) writes the extended Table 3.2/3.5 --
+every variant, the continual baselines of issue 4 included, with final return, retention and
+the forgetting measure of Eq. 1.4 (:mod:`evodevo.neuromod.forgetting`) -- from any set of run
+directories.
 """
 
 from __future__ import annotations
@@ -21,12 +25,24 @@ from evodevo.config import from_dict
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.evaluation import improvement, retention
+from evodevo.neuromod.forgetting import forgetting
 from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4, TABLE_3_5
+from evodevo.neuromod.variants import VARIANTS
 from evodevo.parallel import make_pool
 from evodevo.runs import RunDir, atomic_write_text, read_json
 from evodevo.stats import summarise
 
-__all__ = ["run_grid", "run_dir_name", "collect", "write_report", "ABLATIONS"]
+__all__ = [
+    "run_grid",
+    "run_dir_name",
+    "collect",
+    "collect_dirs",
+    "write_report",
+    "write_continual_table",
+    "table_continual",
+    "continual_records",
+    "ABLATIONS",
+]
 
 ABLATIONS = ("no-da", "no-5ht", "no-ne", "no-ach")
 
@@ -273,11 +289,144 @@ def table_3_5(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], li
     return header, rows
 
 
+def _variant_order(runs: Mapping[str, Any]) -> list[str]:
+    """Known variants in their table order, then any other name found, sorted."""
+    known = [v for v in VARIANTS if v in runs]
+    return known + sorted(v for v in runs if v not in VARIANTS)
+
+
+def _thesis_final(variant: str, env: str) -> tuple[float, float] | None:
+    """The thesis' final return (Table 3.2, or 3.4 for the ablations), if it reports one."""
+    if variant in ("pnn", "biarm") and env in TABLE_3_2:
+        return TABLE_3_2[env][variant]
+    return TABLE_3_4.get(env, {}).get(variant)
+
+
+def _forgetting_values(runs: dict[int, dict[str, Any]], env: str) -> list[float]:
+    """Eq. 1.4 per seed for task ``env`` (nan for the sequence's last task)."""
+    out = []
+    for s in sorted(runs):
+        tasks = runs[s]["tasks"]
+        for i, t in enumerate(tasks):
+            if t["env_id"] == env:
+                out.append(forgetting(t, last=i == len(tasks) - 1))
+    return out
+
+
+def continual_records(runs: dict[str, dict[int, dict[str, Any]]]) -> list[dict[str, Any]]:
+    """One numeric record per (variant, task): the data of the extended Table 3.2/3.5.
+
+    Final and initial returns are mean, std (ddof 1) and 95 % bootstrap interval over seeds
+    (:func:`evodevo.stats.summarise`); retention is that of the means (SPEC §1.7, as Table
+    3.5); forgetting is Eq. 1.4 per seed, then summarised over seeds (nan for the last task,
+    which nothing follows). The thesis columns are nan where the thesis reports nothing.
+    """
+    records = []
+    for v in _variant_order(runs):
+        for env in _env_ids({v: runs[v]}):
+            ini = summarise(_values(runs[v], env, "initial_return"))
+            fin = summarise(_values(runs[v], env, "final_return"))
+            forg_vals = _forgetting_values(runs[v], env)
+            forg = (
+                summarise(forg_vals) if not any(math.isnan(x) for x in forg_vals) else summarise([])
+            )
+            th_final = _thesis_final(v, env)
+            th_ret = TABLE_3_5.get(env, {}).get(v)
+            episodes = sorted({int(t["episodes"]) for t in _tasks_of(runs[v], env)})
+            records.append(
+                {
+                    "variant": v,
+                    "env_id": env,
+                    "n_seeds": fin.n,
+                    "seeds": " ".join(str(s) for s in sorted(runs[v])),
+                    "episodes": " ".join(str(e) for e in episodes),
+                    "initial_mean": ini.mean,
+                    "initial_std": ini.std,
+                    "final_mean": fin.mean,
+                    "final_std": fin.std,
+                    "final_ci_low": fin.ci_low,
+                    "final_ci_high": fin.ci_high,
+                    "retention": retention(ini.mean, fin.mean),
+                    "forgetting_mean": forg.mean,
+                    "forgetting_std": forg.std,
+                    "forgetting_ci_low": forg.ci_low,
+                    "forgetting_ci_high": forg.ci_high,
+                    "thesis_final_mean": th_final[0] if th_final else math.nan,
+                    "thesis_final_std": th_final[1] if th_final else math.nan,
+                    "thesis_retention": th_ret[2] if th_ret else math.nan,
+                }
+            )
+    return records
+
+
+def _tasks_of(runs: dict[int, dict[str, Any]], env: str) -> list[dict[str, Any]]:
+    return [t for s in sorted(runs) for t in runs[s]["tasks"] if t["env_id"] == env]
+
+
+def table_continual(
+    runs: dict[str, dict[int, dict[str, Any]]],
+) -> tuple[list[str], list[list[str]]]:
+    """Extended Tables 3.2/3.5: every variant found, per task (Markdown cells)."""
+    header = [
+        "Model",
+        "Environment",
+        "Seeds",
+        "Final return (ours) mean ± std [95 % CI]",
+        "Initial (ours)",
+        "Retention (ours)",
+        "Forgetting Eq. 1.4 (ours)",
+        "Final (thesis)",
+        "Retention (thesis)",
+    ]
+    rows = []
+    for r in continual_records(runs):
+        ret = r["retention"]
+        rows.append(
+            [
+                r["variant"],
+                r["env_id"],
+                str(r["n_seeds"]),
+                _cell(r, "final", ci=True),
+                _cell(r, "initial"),
+                "undefined" if math.isnan(ret) else f"{100 * ret:.2f} %",
+                "— (last task)"
+                if math.isnan(r["forgetting_mean"])
+                else _pm(r["forgetting_mean"], r["forgetting_std"]),
+                "—"
+                if math.isnan(r["thesis_final_mean"])
+                else _pm(r["thesis_final_mean"], r["thesis_final_std"]),
+                "—"
+                if math.isnan(r["thesis_retention"])
+                else f"{100 * r['thesis_retention']:.2f} %",
+            ]
+        )
+    return header, rows
+
+
+def _cell(record: Mapping[str, Any], key: str, ci: bool = False) -> str:
+    """``mean ± std`` (and ``[lo, hi]``) of ``record[key + '_mean']`` etc., two decimals."""
+    cell = _pm(record[f"{key}_mean"], record[f"{key}_std"])
+    if ci:
+        cell += f" [{record[f'{key}_ci_low']:.2f}, {record[f'{key}_ci_high']:.2f}]"
+    return cell
+
+
+def continual_csv(runs: dict[str, dict[int, dict[str, Any]]]) -> str:
+    """:func:`continual_records` as CSV (numbers unformatted; nan where undefined)."""
+    records = continual_records(runs)
+    header = list(records[0]) if records else []
+    return _csv(header, [[r[k] for k in header] for r in records])
+
+
 TABLES = {
     "table_3_2": ("Table 3.2 — final return, PNN vs BIARM", table_3_2),
     "table_3_3": ("Table 3.3 — time per training step", table_3_3),
     "table_3_4": ("Table 3.4 — ablations (final return)", table_3_4),
     "table_3_5": ("Table 3.5 — initial vs final return and retention", table_3_5),
+    "table_continual": (
+        "Extended Tables 3.2/3.5 — every variant: final return, retention, forgetting (Eq. 1.4)",
+        table_continual,
+    ),
 }
 
 
@@ -295,7 +444,8 @@ def write_report(out: str | Path, figures: bool = True) -> Path:
         header, rows = fn(runs)
         md = f"## {title}\n\n{budget}\n" + _md_table(header, rows)
         atomic_write_text(root / f"{name}.md", md)
-        atomic_write_text(root / f"{name}.csv", _csv(header, rows))
+        text = continual_csv(runs) if name == "table_continual" else _csv(header, rows)
+        atomic_write_text(root / f"{name}.csv", text)
         parts.append(f"## {title}\n\n" + _md_table(header, rows))
     if figures:
         from evodevo.neuromod.figures import draw_all
@@ -355,3 +505,92 @@ def contrast_table(dirs: Mapping[str, str | Path], variant: str = "biarm") -> st
 
 
 __all__ += ["contrast_table"]
+
+
+# ---------------------------------------------------------------------------- compare biarm
+def collect_dirs(
+    paths: Sequence[str | Path],
+) -> tuple[dict[str, dict[int, dict[str, Any]]], dict[tuple[str, int], Path]]:
+    """Summaries of finished BIARM runs from run directories and/or ``biarm compare`` folders.
+
+    Returns ``{variant: {seed: summary}}`` and each run's folder. A path that is neither a
+    finished ``biarm train`` run (``summary.json``) nor a folder with ``runs/``, a run of
+    another kind, or the same (variant, seed) twice is an :class:`EvodevoError`.
+    """
+    folders: list[Path] = []
+    for p in map(Path, paths):
+        if (p / "summary.json").is_file():
+            folders.append(p)
+        elif (p / "runs").is_dir():
+            folders += sorted(f for f in (p / "runs").iterdir() if (f / "summary.json").is_file())
+        else:
+            raise EvodevoError(
+                f"{str(p)!r} holds neither summary.json nor runs/; pass finished "
+                "`evodevo biarm train` run directories or `evodevo biarm compare` folders"
+            )
+    runs: dict[str, dict[int, dict[str, Any]]] = {}
+    where: dict[tuple[str, int], Path] = {}
+    for f in folders:
+        kind = read_json(f / "config.json").get("kind") if (f / "config.json").is_file() else None
+        if kind != "biarm":
+            raise EvodevoError(
+                f"{str(f)!r} holds a {kind!r} run, not a BIARM run (`evodevo biarm train`); "
+                "use `evodevo compare kuka` for Kuka runs"
+            )
+        s = read_json(f / "summary.json")
+        key = (str(s["variant"]), int(s["seed"]))
+        if key in where:
+            raise EvodevoError(
+                f"variant {key[0]!r} seed {key[1]} is in both {str(where[key])!r} and "
+                f"{str(f)!r}; pass each run once"
+            )
+        where[key] = f
+        runs.setdefault(key[0], {})[key[1]] = s
+    if not runs:
+        raise EvodevoError("no finished BIARM run in the given directories; nothing to compare")
+    return runs, where
+
+
+def _continual_budget(
+    runs: dict[str, dict[int, dict[str, Any]]], where: Mapping[tuple[str, int], Path]
+) -> str:
+    """Budget, seeds, evaluation and machine of every variant (SPEC §6)."""
+    lines = []
+    machine: dict[str, Any] = {}
+    for v in _variant_order(runs):
+        seed = min(runs[v])
+        saved = RunDir(where[(v, seed)], create=False).read_config()
+        machine = machine or saved.get("machine", {})
+        s = runs[v][seed]
+        eps = ", ".join(f"{t['env_id']} {t['episodes']}" for t in s["tasks"])
+        lines.append(
+            f"- {v}: seeds {sorted(runs[v])}; episodes per task {eps} (episodes_scale "
+            f"{saved['config'].get('episodes_scale')}); {len(s['eval_seeds'])} greedy "
+            f"evaluation episodes, seeds {s['eval_seeds'][0]}..{s['eval_seeds'][-1]}"
+        )
+    return (
+        "Budget and seeds per variant:\n\n"
+        + "\n".join(lines)
+        + "\n\nMean ± std over seeds, 95 % bootstrap interval of the mean (10,000 resamples). "
+        "Retention is that of the seed means (Table 3.5, SPEC §1.7). Forgetting is Eq. 1.4, "
+        "max over k of Acc(i,k) - Acc(i,T) in return units (0: none; the last task has none), "
+        "per seed, then mean ± std. sb3-dqn trains a separate model per task, so its "
+        "retention is 1 and its forgetting 0 by construction. Thesis numbers: Tables 3.2, 3.4 "
+        "and 3.5 (BIARM, PNN and the ablations only). "
+        f"Machine: {machine.get('processor')}, {machine.get('cpus')} CPUs, "
+        f"{machine.get('platform')}.\n"
+    )
+
+
+def write_continual_table(paths: Sequence[str | Path], out: str | Path) -> Path:
+    """``evodevo compare biarm``: ``table_continual.md`` and ``.csv`` in ``out``; returns the
+    Markdown file."""
+    runs, where = collect_dirs(paths)
+    root = Path(out)
+    root.mkdir(parents=True, exist_ok=True)
+    title = TABLES["table_continual"][0]
+    header, rows = table_continual(runs)
+    md = f"# {title}\n\n{_continual_budget(runs, where)}\n" + _md_table(header, rows)
+    atomic_write_text(root / "table_continual.md", md)
+    atomic_write_text(root / "table_continual.csv", continual_csv(runs))
+    return root / "table_continual.md"
