@@ -92,6 +92,12 @@ def _model_path(run: RunDir, index: int) -> Path:
     return run.checkpoints / f"sb3_task{index}.zip"
 
 
+def _load_model(run: RunDir, index: int) -> DQN:
+    """Task ``index``'s saved model (SB3's ``load`` re-seeds the global RNGs: scoped)."""
+    with scoped_global_rng():
+        return DQN.load(_model_path(run, index), device="cpu")
+
+
 @contextmanager
 def scoped_global_rng() -> Iterator[None]:
     """Run a block that seeds the global ``random``/NumPy/torch RNGs, then restore them."""
@@ -377,7 +383,7 @@ def train_sb3_tasks(
             )
             if i < len(specs) - 1:  # Acc_{j,i} of Eq. 1.4: the earlier models, reloaded
                 for j in range(i):
-                    old = DQN.load(_model_path(run, j), device="cpu")
+                    old = _load_model(run, j)
                     mean = float(np.mean(evaluate_model(old, specs[j], seeds)))
                     results[j]["returns_after"].append(mean)
             write_json(progress_path, {"results": results, "step": step})
@@ -385,7 +391,7 @@ def train_sb3_tasks(
                 stop.check(f"task {i} ({spec.env_id})", hint)
     tasks = []
     for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
-        final = evaluate_model(DQN.load(_model_path(run, i), device="cpu"), spec, seeds)
+        final = evaluate_model(_load_model(run, i), spec, seeds)
         ini_mean = float(np.mean(res["eval_returns_initial"]))
         fin_mean = float(np.mean(final))
         tasks.append(

@@ -6,6 +6,7 @@ Examples::
     evodevo biarm train --resume --out runs/biarm_s0      # after a kill or Ctrl-C
     evodevo biarm train --variant pnn --tasks CartPole-v1,Acrobot-v1 --episodes-scale 0.1 --out runs/x
     evodevo biarm compare --variants biarm,pnn --seeds 0-4 --workers 2 --out runs/cmp
+    evodevo biarm train --variant ewc --seed 0 --out runs/ewc_s0   # or finetune, sb3-dqn
     evodevo biarm report runs/cmp
 """
 
@@ -18,6 +19,9 @@ import typer
 
 from evodevo.cli.common import ADDRESS_HELP, check_backend, parse_list, parse_seeds
 from evodevo.errors import EvodevoError
+
+#: Every variant name (kept literal: importing the variants module would load torch on start).
+VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, finetune, ewc, sb3-dqn"
 
 __all__ = ["app"]
 
@@ -95,9 +99,7 @@ def _resume_settings(
 
 @app.command()
 def train(
-    variant: str | None = typer.Option(
-        None, help="biarm, pnn, no-da, no-5ht, no-ne or no-ach [biarm]."
-    ),
+    variant: str | None = typer.Option(None, help=f"One of {VARIANT_NAMES} [biarm]."),
     tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
     episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
     seed: int | None = typer.Option(
@@ -177,7 +179,9 @@ def _train_with_progress(
 
 @app.command()
 def compare(
-    variants: str = typer.Option("biarm,pnn", help="Comma-separated variants."),
+    variants: str = typer.Option(
+        "biarm,pnn", help=f"Comma-separated variants out of {VARIANT_NAMES}."
+    ),
     seeds: str = typer.Option("0-4", help="Seeds, e.g. 0-4 or 0,2,5."),
     episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
     tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
