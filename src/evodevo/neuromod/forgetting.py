@@ -67,4 +67,8 @@ def record_returns_after(
         return
     for j in range(index):
         returns = evaluate_column(agent, j, specs[j], seeds)
-        results[j].setdefault("returns_after", []).append(float(np.mean(returns)))
+        # a run resumed from a checkpoint older than returns_after starts from Acc_{j,j}
+        history = results[j].setdefault(
+            "returns_after", [float(np.mean(results[j]["eval_returns_initial"]))]
+        )
+        history.append(float(np.mean(returns)))
