@@ -132,3 +132,35 @@ def test_user_errors_are_clear(tmp_path, fake_run):
     save_arrays(fake_run / "best_genome.npz", "grn", arrays, {})
     with pytest.raises(EvodevoError, match="W_m has shape"):
         invoke("evaluate", fake_run)
+
+
+def test_resume_of_a_run_killed_before_its_first_checkpoint_starts_it(tmp_path):
+    """`--resume` with a saved config but no checkpoint yet runs from generation 0."""
+    cfg = tmp_path / "fake.yaml"
+    cfg.write_text(
+        f"env:\n  id: {FAKE_ID}\nevolution:\n  population: 3\n  generations: 1\n  elite_fraction: 0.34\n"
+        "evaluation:\n  episodes: 2\n  test_episodes: 2\n"
+    )
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    invoke("evolve", "--config", cfg, "--out", ref, "--quiet")
+    invoke("evolve", "--config", cfg, "--out", out, "--quiet")
+    # what a kill during generation 0 leaves behind: config and encoder, no checkpoint
+    for name in ("summary.json", "history.csv", "best_genome.npz"):
+        (out / name).unlink()
+    for f in (out / "checkpoints").iterdir():
+        f.unlink()
+    invoke("evolve", "--config", cfg, "--out", out, "--resume", "--quiet")
+    timing = {"eval_s", "evals_per_s", "elapsed_s"}
+
+    def history(run):
+        import csv
+
+        with (run / "history.csv").open() as f:
+            return [{k: v for k, v in r.items() if k not in timing} for r in csv.DictReader(f)]
+
+    assert history(out) == history(ref)
+    # a different config is still refused, and a folder with no run still needs no --resume
+    with pytest.raises(EvodevoError, match="config differs"):
+        invoke("evolve", "--config", cfg, "--seed", 5, "--out", out, "--resume", "--quiet")
+    with pytest.raises(EvodevoError, match="does not exist"):
+        invoke("evolve", "--config", cfg, "--out", tmp_path / "none", "--resume", "--quiet")

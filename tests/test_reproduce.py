@@ -169,7 +169,9 @@ def test_reproduce_tiny_end_to_end(tmp_path):
                     "train_episodes": 1,
                     "ablation_episodes": 1,
                     "controls": True,
+                    "controllers": ["plain", "neuromodulated"],
                 },
+                "kuka": {"methods": ["ppo", "neat"], "seeds": "0", "budget_scales": [1.0]},
             }
         )
     )
@@ -183,6 +185,10 @@ def test_reproduce_tiny_end_to_end(tmp_path):
         "blind GRN",
         "open-loop",
         "Ablations",
+        "Table 4.2",
+        "| ppo |",
+        "| neat |",
+        "| neuromodulated |",
     ):
         assert needle in md
     assert "(no " not in md

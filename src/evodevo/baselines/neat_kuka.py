@@ -309,6 +309,8 @@ def train_neat(
     import neat
 
     ecfg = cfg.evaluator_config()
+    # A run killed before its first generation's checkpoint has nothing to continue: start it.
+    resume = resume and (run.path / "checkpoints" / STATE_FILE).is_file()
     if resume:
         encoder = Encoder.load(run / "encoder.pt")
     else:

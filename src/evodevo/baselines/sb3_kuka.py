@@ -346,6 +346,8 @@ def train_sb3(
     eval_env.seed(derive(cfg.seed, EVAL_ENV_KEY))
     folder = run.checkpoints
     try:
+        # A run killed before its first checkpoint has nothing to continue: start it.
+        resume = resume and bool(checkpoint_steps(folder) if folder.is_dir() else [])
         if resume:
             model, clock, rows = _resume_state(run, cfg, env)
         else:

@@ -337,6 +337,20 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
     }
 
 
+def _check_same_config(run: RunDir, config: Any, cfg_dict: dict[str, Any]) -> None:
+    """Refuse to resume a run whose saved config differs from ``config``."""
+    saved = run.read_config().get("config")
+    try:  # fields added to the config since the run started take their defaults
+        saved = to_dict(from_dict(type(config), saved or {}))
+    except ConfigError:
+        saved = None
+    if saved != cfg_dict:
+        raise EvodevoError(
+            f"--resume: the config differs from the one saved in {str(run / 'config.json')!r}; "
+            "resume with the same options or start a new run directory"
+        )
+
+
 def evolve_run(
     config: Any,
     out: str | Path,
@@ -364,19 +378,14 @@ def evolve_run(
     run = RunDir(out)
     ckpt = run.path / "checkpoints" / CHECKPOINT_FILE
     cfg_dict = to_dict(config)
-    if resume:
-        if not ckpt.is_file():
+    if resume and not ckpt.is_file():
+        if not (run / "config.json").is_file():
             raise EvodevoError(f"--resume: {str(ckpt)!r} does not exist; start without --resume")
-        saved = run.read_config().get("config")
-        try:  # fields added to the config since the run started take their defaults
-            saved = to_dict(from_dict(type(config), saved or {}))
-        except ConfigError:
-            saved = None
-        if saved != cfg_dict:
-            raise EvodevoError(
-                f"--resume: the config differs from the one saved in {str(run / 'config.json')!r}; "
-                "resume with the same options or start a new run directory"
-            )
+        _check_same_config(run, config, cfg_dict)
+        # killed before the first generation's checkpoint: nothing to continue, start it again
+        resume = False
+    if resume:
+        _check_same_config(run, config, cfg_dict)
         encoder = Encoder.load(run / "encoder.pt")
     else:
         if ckpt.is_file():

@@ -12,10 +12,19 @@ from dataclasses import dataclass, field
 
 from evodevo.config import doc, from_dict
 from evodevo.errors import ConfigError
+from evodevo.neuromod.variants import VARIANTS
 
-__all__ = ["BiarmBudget", "GrnBudget", "ReproduceConfig", "preset", "PRESETS"]
+__all__ = [
+    "BiarmBudget",
+    "GrnBudget",
+    "KukaBaselinesBudget",
+    "ReproduceConfig",
+    "preset",
+    "PRESETS",
+]
 
-BIARM_VARIANTS = ("biarm", "pnn", "no-da", "no-5ht", "no-ne", "no-ach")
+#: every variant of ``biarm train``: the six of Chapter 3 and the continual baselines (issue 4)
+BIARM_VARIANTS = tuple(VARIANTS)
 
 
 @dataclass
@@ -23,7 +32,10 @@ class BiarmBudget:
     """BIARM part: a ``biarm compare`` grid (SPEC §1)."""
 
     enabled: bool = doc(True, "run the BIARM part")
-    variants: list[str] = doc(list(BIARM_VARIANTS), "variants of the grid (SPEC §1.5)")
+    variants: list[str] = doc(
+        list(BIARM_VARIANTS),
+        "variants of the grid: SPEC §1.5 and the continual baselines finetune, ewc, sb3-dqn",
+    )
     seeds: str = doc("0-4", "seed range, e.g. 0-4")
     episodes_scale: float = doc(1.0, "multiplier on every task's episode count (1 = thesis)")
     tasks: list[str] = doc(
@@ -57,7 +69,9 @@ class GrnBudget:
     ablation_episodes: int = doc(40, "test episodes per ablation")
     controls: bool = doc(True, "also evolve the blind GRN and the best open-loop policy")
     control_seeds: str = doc("0", "seeds of the blind and open-loop controls")
-    controllers: list[str] = doc(["plain"], "GRN controller kinds to evolve")
+    controllers: list[str] = doc(
+        ["plain", "neuromodulated"], "GRN controller kinds to evolve (SPEC §2, §5)"
+    )
 
     def validate(self) -> None:
         for name in (
@@ -72,6 +86,36 @@ class GrnBudget:
                 raise ConfigError(f"grn.{name}={getattr(self, name)} must be >= 1")
 
 
+KUKA_METHODS = ("ppo", "td3", "neat")
+
+
+@dataclass
+class KukaBaselinesBudget:
+    """Kuka grasping baselines of thesis Table 4.2 (SPEC §4, issue 4).
+
+    Each baseline trains for the environment steps of the GRN evolution with the same seed
+    (``baselines kuka --budget-from``) times each of ``budget_scales``, then is tested on the
+    GRN's test episodes with the trivial policies reused from ``grn/baselines_test.json``.
+    """
+
+    enabled: bool = doc(True, "run the Kuka baselines (needs the GRN part)")
+    methods: list[str] = doc(list(KUKA_METHODS), "baselines: ppo, td3, neat")
+    seeds: str = doc("0-1", "baseline seeds; each uses the budget of the GRN run of its seed")
+    budget_scales: list[float] = doc(
+        [1.0, 5.0], "multiples of the GRN evolution's env steps (1 = equal budget)"
+    )
+
+    def validate(self) -> None:
+        bad = [m for m in self.methods if m not in KUKA_METHODS]
+        if bad:
+            raise ConfigError(
+                f"kuka.methods: unknown method {bad[0]!r}; accepted: {', '.join(KUKA_METHODS)}"
+            )
+        bad_scale = [x for x in self.budget_scales if not x > 0]
+        if bad_scale:
+            raise ConfigError(f"kuka.budget_scales: {bad_scale[0]} must be > 0")
+
+
 @dataclass
 class ReproduceConfig:
     """Everything ``evodevo reproduce`` runs."""
@@ -80,16 +124,22 @@ class ReproduceConfig:
     workers: int = doc(2, "worker processes for every step")
     biarm: BiarmBudget = field(default_factory=BiarmBudget)
     grn: GrnBudget = field(default_factory=GrnBudget)
+    kuka: KukaBaselinesBudget = field(default_factory=KukaBaselinesBudget)
 
     def validate(self) -> None:
         if self.workers < 1:
             raise ConfigError(f"workers={self.workers} must be >= 1")
+        if self.kuka.enabled and not self.grn.enabled:
+            raise ConfigError(
+                "kuka.enabled needs grn.enabled: the baselines train for the GRN's env steps "
+                "and are tested on its episodes; set kuka.enabled: false or enable grn"
+            )
 
 
 QUICK = {
     "name": "quick",
     "biarm": {
-        "variants": ["biarm", "pnn"],
+        "variants": ["biarm", "pnn", "finetune"],
         "seeds": "0",
         "episodes_scale": 0.05,
         "eval_episodes": 3,
@@ -104,7 +154,9 @@ QUICK = {
         "ablation_episodes": 4,
         "controls": True,
         "control_seeds": "0",
+        "controllers": ["plain", "neuromodulated"],
     },
+    "kuka": {"methods": ["ppo", "neat"], "seeds": "0", "budget_scales": [1.0]},
 }
 
 PRESETS: dict[str, dict] = {"quick": QUICK, "thesis": {"name": "thesis"}}

@@ -192,14 +192,93 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                         [rdir / "figures" / "expression_trace.png"],
                     )
                 )
+        steps += _kuka_steps(cfg, out)
         steps += late
     return steps
+
+
+def kuka_run_dir(out: Path, method: str, scale: float, seed: int) -> Path:
+    """``OUT/kuka/{method}_x{scale}_s{seed}``."""
+    return out / "kuka" / f"{method}_x{scale:g}_s{seed}"
+
+
+def _kuka_steps(cfg: ReproduceConfig, out: Path) -> list[Step]:
+    """Train and test every Kuka baseline at the GRN's env-step budget times each scale."""
+    k, g = cfg.kuka, cfg.grn
+    if not k.enabled:
+        return []
+    w = str(cfg.workers)
+    grn_seeds = parse_seeds(g.seeds)
+    steps: list[Step] = []
+    for scale in k.budget_scales:
+        for method in k.methods:
+            for seed in parse_seeds(k.seeds):
+                # the budget of the plain GRN run with the same seed (else the first seed's)
+                ref = (
+                    out
+                    / "grn"
+                    / f"{g.controllers[0]}_s{seed if seed in grn_seeds else grn_seeds[0]}"
+                )
+                rdir = kuka_run_dir(out, method, scale, seed)
+                tag = f"{method}-x{scale:g}-s{seed}"
+                steps.append(
+                    Step(
+                        f"kuka-train-{tag}",
+                        [
+                            "baselines",
+                            "kuka",
+                            "--method",
+                            method,
+                            "--budget-from",
+                            str(ref),
+                            "--budget-scale",
+                            repr(float(scale)),
+                            "--seed",
+                            str(seed),
+                            "--workers",
+                            w,
+                            "--out",
+                            str(rdir),
+                        ],
+                        [rdir / "summary.json"],
+                        resume_if=rdir / "checkpoints",
+                    )
+                )
+                steps.append(
+                    Step(
+                        f"kuka-evaluate-{tag}",
+                        [
+                            "baselines",
+                            "evaluate",
+                            str(rdir),
+                            "--episodes",
+                            str(g.test_episodes),
+                            "--objects",
+                            "test",
+                            "--workers",
+                            w,
+                            "--baselines-from",
+                            str(out / "grn" / "baselines_test.json"),
+                            "--json",
+                        ],
+                        [rdir / "repro_test_clean.json"],
+                        capture_json=rdir / "repro_test_clean.json",
+                    )
+                )
+    return steps
+
+
+def _started(marker: Path) -> bool:
+    """A file that exists, or a folder that holds something (e.g. a checkpoint)."""
+    if marker.is_dir():
+        return any(marker.iterdir())
+    return marker.exists()
 
 
 def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:
     """Run one step as ``python -m evodevo ...``; raise EvodevoError if it fails."""
     argv = list(step.argv)
-    if step.resume_if is not None and step.resume_if.exists():
+    if step.resume_if is not None and _started(step.resume_if):
         argv.append("--resume")
     cmd = [sys.executable, "-m", "evodevo", *argv]
     log_dir.mkdir(parents=True, exist_ok=True)

@@ -229,6 +229,51 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     return lines
 
 
+def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
+    """Thesis Table 4.2 per budget scale: every tested GRN run beside every tested baseline."""
+    from evodevo.baselines.table_4_2 import markdown, read_run, write_table
+    from evodevo.errors import EvodevoError
+    from evodevo.reproduce.pipeline import kuka_run_dir
+
+    k, g = cfg.kuka, cfg.grn
+    grn_dirs = sorted(p for p in (out / "grn").glob("*_s*") if p.is_dir())
+    lines = [
+        "## Kuka grasping baselines (thesis Table 4.2, SPEC §4)",
+        "",
+        f"Each baseline ({', '.join(k.methods)}; seeds {k.seeds}) trains for the environment "
+        "steps its seed's GRN evolution used, times the scale in the heading, and is tested on "
+        f"the same {g.test_episodes} test-object episodes as the GRN. Training time is wall "
+        f"clock with {cfg.workers} worker processes (the GRN and NEAT evaluate in parallel; "
+        "PPO and TD3 train in one process).",
+        "",
+    ]
+    wrote = False
+    for scale in k.budget_scales:
+        dirs = [*grn_dirs]
+        dirs += [kuka_run_dir(out, m, scale, s) for m in k.methods for s in parse_seeds(k.seeds)]
+        tested: list[str | Path] = []
+        for d in dirs:
+            if not (d / "summary.json").is_file():
+                continue
+            try:
+                read_run(d)
+            except EvodevoError:
+                continue
+            tested.append(d)
+        if not any(Path(d).parent.name == "kuka" for d in tested):
+            continue
+        table, runs = write_table(tested, out / "kuka" / f"table_x{scale:g}")
+        title = f"### Budget {scale:g}× the GRN's environment steps"
+        lines += [markdown(table, runs, 0.5, title=title), ""]
+        wrote = True
+    if not wrote:
+        lines += [
+            "(no tested Kuka baseline yet: the baseline steps were not run or did not finish)",
+            "",
+        ]
+    return lines
+
+
 def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -> Path:
     """Write ``out/report.md`` and ``out/report.html``; return the Markdown path."""
     m = machine_info()
@@ -246,6 +291,8 @@ def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -
         lines += biarm_section(out, cfg)
     if cfg.grn.enabled:
         lines += grn_section(out, cfg)
+    if cfg.kuka.enabled:
+        lines += kuka_section(out, cfg)
     md = "\n".join(lines) + "\n"
     path = out / "report.md"
     atomic_write_text(path, md)
