@@ -11,15 +11,21 @@ __all__ = ["reproduce"]
 
 def reproduce(
     out: Path = typer.Option(..., "--out", help="Run directory for the report and all sub-runs."),
-    budget: str = typer.Option("quick", help="quick (about 10 minutes) or thesis (the full protocol)."),
+    budget: str = typer.Option(
+        "quick", help="quick (about 10 minutes) or thesis (the full protocol)."
+    ),
     config: Path | None = typer.Option(None, "--config", help="YAML budget replacing the preset."),
     seed: int = typer.Option(0, help="Offset added to every seed of the budget."),
     workers: int | None = typer.Option(None, help="Worker processes per step [budget's, 2]."),
-    report_only: bool = typer.Option(False, "--report-only", help="Only rewrite the report from saved runs."),
+    report_only: bool = typer.Option(
+        False, "--report-only", help="Only rewrite the report from saved runs."
+    ),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
     from evodevo.parallel import set_single_thread
     from evodevo.reproduce import run_reproduce
 
     set_single_thread()
-    run_reproduce(budget=budget, out=out, seed=seed, workers=workers, config=config, report_only=report_only)
+    run_reproduce(
+        budget=budget, out=out, seed=seed, workers=workers, config=config, report_only=report_only
+    )
