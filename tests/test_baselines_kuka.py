@@ -155,7 +155,7 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
     assert "weight_mutate_rate      = 0.8" in (out / "neat.ini").read_text()
     res = invoke("evaluate", out, "--episodes", 1, "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
-    assert result["controller"] == "neat" and set(result["baselines"]) == {"zero", "random"}
+    assert result["controller"] == "neat" and set(result["baselines"]) == {"zero", "random", "turn"}
 
 
 @pytest.mark.parametrize("method", ["zero", "random"])

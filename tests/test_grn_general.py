@@ -102,7 +102,7 @@ def test_cli_evolve_and_evaluate_on_pendulum(tmp_path, kind):
     )
     assert res.exit_code == 0, res.output
     result = json.loads(res.output.strip().splitlines()[-1])
-    assert result["controller"] == kind and set(result["baselines"]) == {"zero", "random"}
+    assert result["controller"] == kind and set(result["baselines"]) == {"zero", "random", "turn"}
     rows = (out / "eval_train_0_episodes.csv").read_text().splitlines()
     assert len(rows) == 1 + 3 * 2  # genome, zero and random on the same two seeds
     res = runner.invoke(app, ["grn", "plot", str(out), "--objects", "train"])

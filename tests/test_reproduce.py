@@ -114,7 +114,7 @@ def test_report_values_from_fixture_runs(tmp_path):
     from scipy.stats import fisher_exact
 
     p = fisher_exact([[32, 8], [24, 16]])[1]
-    assert f"{p:.3g}" in md and "blind GRN (no vision): +20.0 points, not significantly" in md
+    assert f"{p:.3g}" in md and "blind GRN (no vision), seed 0: +20.0 points, not significantly" in md
     html = (tmp_path / "report.html").read_text()
     assert "<table>" in html and "80.0 %" in html
 
@@ -192,3 +192,37 @@ def test_reproduce_tiny_end_to_end(tmp_path):
     ):
         assert needle in md
     assert "(no " not in md
+
+
+def _episodes_csv(path: Path, policies: dict[str, list[int]]) -> None:
+    lines = ["policy,episode,seed,noisy,test_objects,reward,success,steps"]
+    for policy, succ in policies.items():
+        lines += [f"{policy},{i},{1000 + i},0,1,{s}.0,{s},7" for i, s in enumerate(succ)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_report_pairs_controls_on_the_same_episodes(tmp_path):
+    """Per GRN seed, every control is compared on the same episodes with the exact McNemar test;
+    the trivial policies (with the constant turn) come from grn/baselines_test.json."""
+    cfg = _fixture(tmp_path)
+    g = tmp_path / "grn"
+    grn = [1] * 32 + [0] * 8
+    _episodes_csv(g / "plain_s0" / "eval_test_0.03_episodes.csv", {"genome": grn})
+    # open loop: 23 successes, all on episodes the GRN also won -> 9 vs 0 discordant
+    _episodes_csv(g / "openloop_s0" / "eval_test_0_episodes.csv", {"genome": [1] * 23 + [0] * 17})
+    # constant turn: 32 successes on episodes 8..39 -> 8 vs 8 discordant
+    turn = [0] * 8 + [1] * 32
+    base = {"zero": _rate(12, 40), "random": _rate(10, 40), "turn": _rate(32, 40)}
+    (g / "baselines_test.json").write_text(json.dumps({"key": {}, "baselines": base}))
+    _episodes_csv(
+        g / "baselines_test_episodes.csv",
+        {"zero": [1] * 12 + [0] * 28, "random": [1] * 10 + [0] * 30, "turn": turn},
+    )
+    md = write_report(tmp_path, cfg).read_text()
+    row = next(line for line in md.splitlines() if line.startswith("| best open-loop policy"))
+    assert "s0: +22.5 (p = 0.0039)" in row  # 2 * 0.5**9
+    row = next(line for line in md.splitlines() if line.startswith("| constant turn"))
+    assert "80.0 % [" in row and "s0: +0.0 (p = 1)" in row
+    # the blind control has no per-episode file: no paired entry, only Fisher
+    row = next(line for line in md.splitlines() if line.startswith("| blind GRN"))
+    assert row.endswith("| — |")

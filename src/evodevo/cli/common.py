@@ -103,7 +103,9 @@ def add_evaluate_command(
         backend: str = typer.Option("local", help=BACKEND_HELP),
         address: str | None = typer.Option(None, help=ADDRESS_HELP),
         baselines: bool = typer.Option(
-            True, "--baselines/--no-baselines", help="Also run the all-zero and random policies."
+            True,
+            "--baselines/--no-baselines",
+            help="Also run the trivial policies (all-zero, random, constant turn).",
         ),
         baselines_from: Path | None = typer.Option(
             None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."

@@ -107,8 +107,7 @@ def evolve(
 
 add_evaluate_command(
     app,
-    help="Test the best genome on fixed seeds, beside the all-zero and random policies "
-    "(SPEC §2.5).",
+    help="Test the best genome on fixed seeds, beside the trivial policies (SPEC §2.5).",
     run_help="Run directory of `evodevo grn evolve`.",
     noise_help="Visual-feature noise std (0.03 = robustness test).",
     label="genome",
@@ -123,15 +122,26 @@ def baselines(
     objects: str = typer.Option("test", help="test or train objects."),
     seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
     workers: int = typer.Option(1, help="Worker processes."),
+    policies: str | None = typer.Option(
+        None,
+        help="Comma-separated trivial policies [zero,random,turn]; policies already in --out "
+        "for the same episodes are kept, missing ones are run.",
+    ),
 ) -> None:
-    """All-zero and uniform-random policies on the fixed test episodes (for --baselines-from)."""
+    """Trivial policies (all-zero, uniform random, constant turn) on the fixed test episodes.
+
+    The file is what `grn evaluate --baselines-from` and `evodevo reproduce` reuse (SPEC §2.5).
+    """
     from evodevo.config import load_config
     from evodevo.grn.config import GrnConfig
     from evodevo.grn.evaluation import evaluate_baselines
     from evodevo.parallel import set_single_thread
 
     set_single_thread()
-    res = evaluate_baselines(load_config(GrnConfig, config), out, episodes, objects, seed, workers)
+    names = [p.strip() for p in policies.split(",") if p.strip()] if policies else None
+    res = evaluate_baselines(
+        load_config(GrnConfig, config), out, episodes, objects, seed, workers, policies=names
+    )
     for name, b in res["baselines"].items():
         typer.echo(format_rate(name, b))
 

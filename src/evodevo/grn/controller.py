@@ -6,7 +6,7 @@ A *controller kind* is a pluggable piece with one interface (:class:`ControllerK
 the episodes it runs in lockstep. Kinds are looked up by name in a registry
 (:func:`register_controller`, :func:`make_controller`); ``config.controller`` may also be a
 ``"module:attr"`` path, so a new kind (e.g. a neuromodulated GRN, SPEC §5) plugs in without
-editing this package. The trivial policies of SPEC §2.5 (all-zero and uniform-random actions)
+editing this package. The trivial policies of SPEC §2.5 (all-zero, uniform-random and constant-turn actions)
 share the runtime interface (:data:`BASELINES`).
 
 >>> import numpy as np
@@ -43,6 +43,7 @@ __all__ = [
     "PlainGrnController",
     "ZeroPolicy",
     "RandomPolicy",
+    "TurnPolicy",
     "BASELINES",
     "register_controller",
     "controller_names",
@@ -253,8 +254,36 @@ class RandomPolicy(ZeroPolicy):
         return np.stack([rng.uniform(-1.0, 1.0, self.n_actions) for rng in rngs])
 
 
-BASELINES: dict[str, type[ZeroPolicy]] = {"zero": ZeroPolicy, "random": RandomPolicy}
-"""The trivial policies measured beside every result (SPEC §2.5)."""
+class TurnPolicy(ZeroPolicy):
+    """One constant action: -1 on the last action dimension, 0 on the others (SPEC §2.5).
+
+    On the Kuka port with the height hack that is dx = dy = 0, d-angle = -1 on every step: the
+    arm descends by itself and only the gripper turns. SPEC §2.5 reports that this open-loop
+    action grasps 59 % of episodes in the original environment, so it is the bar a controller
+    that claims to use vision must clear, not the all-zero policy.
+    """
+
+    def step(
+        self,
+        state: Any,
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        a = np.zeros((len(idx), self.n_actions))
+        a[:, -1] = -1.0
+        return a
+
+
+BASELINES: dict[str, type[ZeroPolicy]] = {
+    "zero": ZeroPolicy,
+    "random": RandomPolicy,
+    "turn": TurnPolicy,
+}
+"""The trivial policies measured beside every result (SPEC §2.5): all-zero, uniform random, and
+the constant "turn the gripper" action (last action dimension -1)."""
 
 _REGISTRY: dict[str, Callable[..., Any] | str] = {
     "plain": PlainGrnController,
@@ -296,7 +325,7 @@ def make_controller(config: Any, n_actions: int) -> Any:
 
 
 def make_policy(config: Any, n_actions: int, baseline: str | None = None) -> Any:
-    """The controller of ``config``, or the trivial policy ``baseline`` ("zero" or "random")."""
+    """The controller of ``config``, or the trivial policy ``baseline`` (a key of BASELINES)."""
     if baseline is None:
         return make_controller(config, n_actions)
     if baseline not in BASELINES:

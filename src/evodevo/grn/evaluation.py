@@ -12,6 +12,7 @@ uniform-random policies run on the same seeds in the same call. It writes
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -133,7 +134,7 @@ def evaluate_run(
         noise: std of visual-feature noise; > 0 adds a noisy test and the retention.
         seed: test seed (default ``evaluation.test_seed``).
         workers: worker processes.
-        baselines: also run the all-zero and uniform-random policies on the same seeds.
+        baselines: also run the trivial policies (BASELINES: all-zero, uniform random, constant turn) on the same seeds.
         baselines_from: a file of :func:`evaluate_baselines` for the same episodes, used
             instead of running the trivial policies again.
         backend: "local" (process pool) or "ray" (Ray actors); the results are the same.
@@ -213,32 +214,50 @@ def evaluate_baselines(
     objects: str = "test",
     seed: int | None = None,
     workers: int = 1,
+    policies: Sequence[str] | None = None,
 ) -> dict[str, Any]:
-    """Run the all-zero and uniform-random policies on the fixed test episodes; save to ``out``.
+    """Run the trivial policies (SPEC §2.5) on the fixed test episodes; save to ``out``.
 
     The trivial policies need no genome, so one file serves every run tested on the same
     episodes (``evaluate --baselines-from``); the file records which episodes those were.
+    ``policies`` (default: every key of BASELINES) are the ones to measure. If ``out`` already
+    holds results for the same episodes, its policies are kept and only the missing ones run,
+    so a file written before a policy was added is completed, not recomputed.
     """
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    names = list(BASELINES) if policies is None else list(policies)
+    bad = [p for p in names if p not in BASELINES]
+    if bad or not names:
+        raise EvodevoError(
+            f"baseline policy {bad[0] if bad else ''!r} is not known; choose from {', '.join(BASELINES)}"
+        )
     n = int(episodes if episodes is not None else config.evaluation.test_episodes)
     test_seed = int(seed if seed is not None else config.evaluation.test_seed)
-    eps = test_episodes(test_seed, n, objects == "test")
+    key = _baseline_key(config, n, objects, test_seed)
+    out = Path(out)
+    run = RunDir(out.parent)
+    csv_name = f"{out.stem}_episodes.csv"
     base: dict[str, Any] = {}
     rows: list[dict[str, Any]] = []
-    with Evaluator(config, None, workers=workers) as ev:
-        for name in BASELINES:
-            res = ev.evaluate([None], eps, baseline=name)
-            rows += _rows(name, eps, res)
-            base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
-    result = {
-        "key": _baseline_key(config, n, objects, test_seed),
-        "baselines": base,
-        "machine": machine_info(),
-    }
-    out = Path(out)
+    if out.is_file() and (out.parent / csv_name).is_file():
+        from evodevo.runs import read_json
+
+        old = read_json(out)
+        if old.get("key") == key:
+            base = dict(old["baselines"])
+            rows = [r for r in run.read_csv(csv_name) if r["policy"] in base]
+    todo = [p for p in names if p not in base]
+    if todo:
+        eps = test_episodes(test_seed, n, objects == "test")
+        with Evaluator(config, None, workers=workers) as ev:
+            for name in todo:
+                res = ev.evaluate([None], eps, baseline=name)
+                rows += _rows(name, eps, res)
+                base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+    result = {"key": key, "baselines": base, "machine": machine_info()}
     write_json(out, result)
-    RunDir(out.parent).write_csv(f"{out.stem}_episodes.csv", rows)
+    run.write_csv(csv_name, rows)
     return result
 
 

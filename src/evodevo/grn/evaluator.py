@@ -94,7 +94,9 @@ def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) ->
     """``gymnasium.make`` after importing ``evodevo.envs`` for ``evodevo/`` ids.
 
     ``test_objects=False`` is dropped (the Kuka env's default), so envs without held-out
-    objects can be made by the same calls.
+    objects can be made by the same calls. An id ``"module:EnvName-v0"`` makes Gymnasium import
+    ``module`` first (which registers the env; docs/extending.md); a module that cannot be
+    imported is an :class:`EvodevoError` naming the id.
     """
     if extra.get("test_objects") is False:
         extra = {k: v for k, v in extra.items() if k != "test_objects"}
@@ -110,6 +112,11 @@ def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) ->
         return gym.make(env_id, **{**(kwargs or {}), **extra})
     except gym.error.Error as exc:
         raise EvodevoError(f"cannot make environment {env_id!r}: {exc}") from None
+    except ImportError as exc:  # a "module:EnvName-v0" id whose module cannot be imported
+        raise EvodevoError(
+            f"cannot make environment {env_id!r}: {str(exc).splitlines()[0]} (is the folder "
+            "holding the module on the Python path? e.g. PYTHONPATH=. evodevo ...)"
+        ) from None
     except TypeError as exc:
         hint = (
             "; it has no held-out test objects: evaluate with --objects train"
@@ -435,7 +442,8 @@ class Evaluator:
             genomes: genomes of the controller kind of ``config`` (ignored entries for baselines).
             episodes: the episodes, the same for every genome.
             config: a config overriding the evaluator's (e.g. an ablation without noise).
-            baseline: "zero" or "random" to run a trivial policy instead (genomes may be [None]).
+            baseline: a trivial policy of BASELINES ("zero", "random", "turn") to run instead
+                (genomes may be [None]).
 
         Returns:
             (len(genomes), len(episodes)) arrays.

@@ -8,6 +8,7 @@ the table, not written in advance.
 from __future__ import annotations
 
 import base64
+import csv
 import datetime as dt
 import html
 import json
@@ -18,7 +19,7 @@ from typing import Any
 from evodevo.cli.common import parse_seeds
 from evodevo.reproduce.budget import ReproduceConfig
 from evodevo.runs import atomic_write_text, machine_info
-from evodevo.stats import fisher_exact, rate
+from evodevo.stats import fisher_exact, mcnemar_exact, rate
 
 __all__ = ["write_report", "grn_section", "biarm_section", "markdown_to_html", "THESIS_GRN"]
 
@@ -38,6 +39,27 @@ def _load(path: Path) -> dict[str, Any] | None:
         return dict(json.loads(path.read_text()))
     except (OSError, json.JSONDecodeError):
         return None
+
+
+#: The trivial policies of SPEC §2.5 as the report names them.
+TRIVIAL_TITLES = {
+    "zero": "all-zero actions",
+    "random": "uniform-random actions",
+    "turn": "constant turn (dx = dy = 0, d-angle = −1)",
+}
+
+
+def _successes(path: Path, policy: str) -> list[int] | None:
+    """Per-episode successes of ``policy`` in an ``*_episodes.csv`` file, in episode order."""
+    try:
+        with path.open() as fh:
+            rows = [r for r in csv.DictReader(fh) if r["policy"] == policy]
+    except (OSError, KeyError):
+        return None
+    if not rows:
+        return None
+    rows.sort(key=lambda r: int(r["episode"]))
+    return [int(r["success"]) for r in rows]
 
 
 def _pct(r: dict[str, Any]) -> str:
@@ -136,7 +158,8 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         f"Budget per evolution: population {g.population}, ≤ {g.generations} generations, "
         f"{g.episodes} episodes per genome (70 % clean / 30 % noisy). Test: {g.test_episodes} "
         f"episodes on held-out test objects with fixed seeds; {g.train_episodes} on training objects. "
-        "Intervals are Wilson 95 %. The all-zero and uniform-random policies run on the same seeds.",
+        "Intervals are Wilson 95 %. The trivial policies (all-zero, uniform-random, constant turn) "
+        "run on the same seeds.",
         "",
     ]
     main_rows = []
@@ -170,30 +193,52 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         f"{100 * THESIS_GRN['success']:.1f} % (n=40) | — | — |",
         "",
     ]
-    # Pooled comparison with the blind controls.
+    # Pooled comparison with the blind controls and the trivial policies; per seed, the GRN and
+    # each control are paired on the same test episodes (exact McNemar).
     kc, nc = _pooled(tests, "clean") if "clean" in tests[0] else _pooled(tests)
-    ctrl_rows = [f"| GRN (pooled over seeds) | {rate(kc, nc).fmt()} | — |"]
+    grn_eps: dict[int, list[int]] = {}
+    for s in parse_seeds(g.seeds):
+        ep = _successes(gdir / f"{g.controllers[0]}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
+        if ep is not None:
+            grn_eps[s] = ep
+    ctrl_rows = [f"| GRN (pooled over seeds) | {rate(kc, nc).fmt()} | — | — |"]
     diffs = []
+    controls: list[tuple[str, dict[str, Any], list[int] | None]] = []
     for label, title in (("blind", "blind GRN (no vision)"), ("openloop", "best open-loop policy")):
         for s in parse_seeds(g.control_seeds):
-            t = _load(gdir / f"{label}_s{s}" / "repro_test_clean.json")
-            if t is None:
-                continue
-            p = fisher_exact(kc, nc, int(t["successes"]), int(t["episodes"]))
-            ctrl_rows.append(
-                f"| {title}, seed {s} | {rate(int(t['successes']), int(t['episodes'])).fmt()} | {p:.3g} |"
-            )
-            diffs.append((title, kc / nc - t["success_rate"], p))
-    zero = tests[0]["baselines"].get("zero")
-    if zero:
-        p = fisher_exact(kc, nc, int(zero["successes"]), int(tests[0]["episodes"]))
-        ctrl_rows.append(f"| all-zero actions | {_pct(zero)} | {p:.3g} |")
-        diffs.append(("the all-zero policy", kc / nc - zero["success_rate"], p))
+            cdir = gdir / f"{label}_s{s}"
+            t = _load(cdir / "repro_test_clean.json")
+            if t is not None:
+                ep = _successes(cdir / "eval_test_0_episodes.csv", "genome")
+                controls.append((f"{title}, seed {s}", t, ep))
+    trivial = _load(gdir / "baselines_test.json")
+    triv_base = trivial["baselines"] if trivial else tests[0]["baselines"]
+    for name, title in TRIVIAL_TITLES.items():
+        b = triv_base.get(name)
+        if b is not None:
+            ep = _successes(gdir / "baselines_test_episodes.csv", name) if trivial else None
+            row = {"successes": b["successes"], "episodes": b.get("n", tests[0]["episodes"])}
+            controls.append((title, {**b, **row}, ep))
+    for title, t, ep in controls:
+        k2, n2 = int(t["successes"]), int(t["episodes"])
+        p = fisher_exact(kc, nc, k2, n2)
+        paired = []
+        for s, gs in grn_eps.items():
+            if ep is not None and len(ep) == len(gs):
+                d = (sum(gs) - sum(ep)) / len(gs)
+                paired.append(f"s{s}: {100 * d:+.1f} (p = {mcnemar_exact(gs, ep):.2g})")
+        ctrl_rows.append(
+            f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(paired) or '—'} |"
+        )
+        diffs.append((title, kc / nc - k2 / n2, p))
     lines += [
         "### Does the GRN use vision? Controls evolved with the same budget (SPEC §2.5)",
         "",
-        "| policy | test success [95 % CI] | Fisher p vs GRN |",
-        "|---|---|---|",
+        "The last column pairs each GRN seed with the policy on the same test episodes: the "
+        "difference in points and the exact McNemar p.",
+        "",
+        "| policy | test success [95 % CI] | Fisher p vs pooled GRN | GRN − policy per GRN seed, points (McNemar p) |",
+        "|---|---|---|---|",
         *ctrl_rows,
         "",
         "### Where we differ and why",
