@@ -78,9 +78,9 @@ def test_gated_shapes_and_gradient_only_into_current_column():
     assert cur.u2.shape == (2 * 4, 16) and cur.uq.shape == (2 * 4, 4)
     x = torch.randn(6, 5)
     states = torch.full((4,), 0.5)
-    h1, h2 = net.features(x, 2, states)
-    assert h1.shape == (6, 32) and h2.shape == (6, 32)
-    q = cur(x, h1, h2, cur.context(states))
+    prev = net.features(x, 2, states)
+    assert prev[0].shape == (4, 6, 16)  # blocks h1_1, h1_2, h2_1, h2_2 of the frozen columns
+    q = cur(x, prev, cur.context(states))
     q.sum().backward()
     for col in list(net.columns)[:-1]:
         for p in col.parameters():
@@ -100,9 +100,9 @@ def test_context_gate_scales_laterals():
         # gate ~ sigmoid(0)=0.5 vs sigmoid(20)=1: laterals differ, so Q differs
         assert not torch.allclose(net.q(x, 2, s_lo), net.q(x, 2, s_hi))
         # a per-sample gate of (B, 1) equal to the scalar gives the same Q
-        h1, h2 = net.features(x, 2, s_hi)
+        prev = net.features(x, 2, s_hi)
         g = col.context(s_hi)
-        torch.testing.assert_close(col(x, h1, h2, g), col(x, h1, h2, g.expand(3, 1)))
+        torch.testing.assert_close(col(x, prev, g), col(x, prev, g.expand(3, 1)))
 
 
 def test_column_init_xavier_zero_bias_and_seeded():

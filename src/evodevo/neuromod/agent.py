@@ -162,8 +162,7 @@ class BiarmAgent:
         bsz = obs.shape[0]
         if col > 0 and isinstance(self.net, ProgressiveNet):
             assert isinstance(column, Column) and isinstance(target, Column)
-            h1, h2 = self.net.features(torch.cat((obs, nobs)), col, st)
-            h1_on, h2_on, h1_nx, h2_nx = h1[:bsz], h2[:bsz], h1[bsz:], h2[bsz:]
+            prev = self.net.features(torch.cat((obs, nobs)), col, st)
             ctx_on = ctx_nx = None
             if self.net.gated:
                 assert st is not None
@@ -174,9 +173,9 @@ class BiarmAgent:
                     ctx_on = column.context(st)
                 with torch.no_grad():
                     ctx_nx = target.context(st)
-            q_all = column(obs, h1_on, h2_on, ctx_on)
+            q_all = column(obs, column.rows(prev, 0, bsz), ctx_on)
             with torch.no_grad():
-                q_next = target(nobs, h1_nx, h2_nx, ctx_nx).max(1).values
+                q_next = target(nobs, column.rows(prev, bsz, 2 * bsz), ctx_nx).max(1).values
         else:
             q_all = column(obs)
             with torch.no_grad():

@@ -44,6 +44,38 @@ def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) 
     return nn.Parameter(t)
 
 
+# ---------------------------------------------------------------------------- gated laterals
+Heads = tuple[tuple[torch.Tensor, torch.Tensor], ...]
+#: Frozen columns' activations as :meth:`ProgressiveNet.features` returns them.
+Prev = tuple[torch.Tensor, ...]
+
+
+def gated_laterals(
+    feats: torch.Tensor, w: torch.Tensor, b: torch.Tensor, gate: torch.Tensor, heads: Heads
+) -> tuple[torch.Tensor, ...]:
+    """Eq. 3.8-3.9 for ``n`` stacked adapter blocks feeding ``len(heads)`` layers.
+
+    ``feats`` (n, B, hidden) holds block j's input ``h_k``; ``w`` (n, hidden, 2r) = [V | W_alpha]
+    and ``b`` (n, 1, 2r) their biases. With ``o = h_k [V | W_alpha] + b`` (one batched product
+    for all blocks), ``zc = V h_k * (sigmoid(W_alpha h_k) * gate)`` is ``alpha * V h`` of Eq. 3.8
+    (``gate`` the context gate: a scalar, or one per sample (B, 1)). Head g = ``(U, bias)``
+    takes the g-th equal share of the blocks and returns ``bias + [zc_s .. zc_e] U`` (Eq. 3.9,
+    all U_k of a layer in one product, the layer's bias folded in). ``split``/``unbind`` rather
+    than slicing keep the backward pass to one gather per split (no zero-filled copies).
+    """
+    r = w.shape[2] // 2
+    v, a = torch.baddbmm(b, feats, w).split(r, 2)
+    cg = torch.sigmoid(a) * (gate.unsqueeze(0) if gate.dim() == 2 else gate)
+    zc = v * cg
+    per = zc.shape[0] // len(heads)
+    if per == 1:
+        ms = zc.unbind(0)
+    else:
+        bsz = zc.shape[1]
+        ms = tuple(z.transpose(0, 1).reshape(bsz, per * r) for z in zc.split(per, 0))
+    return tuple(torch.addmm(bias, m, u) for m, (u, bias) in zip(ms, heads, strict=True))
+
+
 class Column(nn.Module):
     """One task column with its lateral adapters from ``n_prev`` earlier columns.
 
@@ -102,72 +134,45 @@ class Column(nn.Module):
                 self.uq = _xavier((k * h, a), (k * h, a), gen)
 
     # ---------------------------------------------------------------- laterals
-    def _adapters(
-        self, prev: torch.Tensor, w: torch.Tensor, b: torch.Tensor, ctx: torch.Tensor
-    ) -> torch.Tensor:
-        """``alpha * V h`` of all stacked blocks in one batched product, as (B, blocks*r).
-
-        ``prev`` holds the blocks' inputs side by side (B, blocks*hidden);
-        ``alpha = sigmoid(W_alpha h) * ctx`` (Eq. 3.8), ``ctx`` a scalar or (B, 1).
-        """
-        bsz = prev.shape[0]
-        n, r = w.shape[0], self.r
-        if n == 1:
-            o = torch.addmm(b[0], prev, w[0])
-            return o[:, :r] * (torch.sigmoid(o[:, r:]) * ctx)
-        xt = prev.unflatten(1, (n, self.hidden)).transpose(0, 1)  # (n, B, hidden), a view
-        o = torch.baddbmm(b, xt, w)  # (n, B, 2r): every V_k h_k and W_alpha,k h_k at once
-        if ctx.dim() == 2:
-            ctx = ctx.unsqueeze(0)
-        z = o[..., :r] * (torch.sigmoid(o[..., r:]) * ctx)
-        return z.transpose(0, 1).reshape(bsz, n * r)
-
-    def lateral2(self, h1_prev: torch.Tensor, ctx: torch.Tensor | None) -> torch.Tensor:
-        """Lateral into layer 2 from the concatenated earlier ``h1`` (B, k*hidden)."""
-        if self.gated:
-            assert ctx is not None
-            k = self.n_prev
-            return torch.mm(self._adapters(h1_prev, self.ad_w[:k], self.ad_b[:k], ctx), self.u2)
-        return torch.mm(h1_prev, self.u2)
-
     def context(self, states: torch.Tensor) -> torch.Tensor:
         """Context gate ``sigmoid(sum_m w_m s_m)``; states (4,) -> scalar, (B, 4) -> (B, 1)."""
         if states.dim() == 1:
             return torch.sigmoid(torch.dot(states, self.ctx_w))
         return torch.sigmoid(states @ self.ctx_w).unsqueeze(1)
 
-    # ---------------------------------------------------------------- forward
-    def hidden2(
-        self, h1: torch.Tensor, h1_prev: torch.Tensor | None, ctx: torch.Tensor | None
-    ) -> torch.Tensor:
-        """``h2`` given this column's ``h1`` and the earlier columns' ``h1``."""
-        pre = torch.addmm(self.b2, h1, self.w2)
-        if self.n_prev:
-            assert h1_prev is not None
-            pre = pre + self.lateral2(h1_prev, ctx)
-        return torch.relu(pre)
+    def rows(self, prev: Prev, start: int, stop: int) -> Prev:
+        """Rows ``start:stop`` (samples) of a :meth:`ProgressiveNet.features` result."""
+        if self.gated:
+            return (prev[0][:, start:stop],)
+        return prev[0][start:stop], prev[1][start:stop]
 
+    # ---------------------------------------------------------------- forward
     def forward(
         self,
         x: torch.Tensor,
-        h1_prev: torch.Tensor | None = None,
-        h2_prev: torch.Tensor | None = None,
+        prev: Prev | None = None,
         ctx: torch.Tensor | None = None,
     ) -> torch.Tensor:
-        """Q-values (B, n_actions) of this column."""
+        """Q-values (B, n_actions) of this column.
+
+        ``prev`` holds the earlier columns' activations as :meth:`ProgressiveNet.features`
+        returns them (rows of this batch); ``ctx`` is the context gate (BIARM).
+        """
         h1 = torch.relu(torch.addmm(self.b1, x, self.w1))
         if not self.n_prev:
             return torch.addmm(self.bq, torch.relu(torch.addmm(self.b2, h1, self.w2)), self.wq)
-        assert h1_prev is not None and h2_prev is not None
+        assert prev is not None
         if self.gated:
             assert ctx is not None
             # both laterals' adapters (from h1 and from h2 of the earlier columns) in one op
-            kr = self.n_prev * self.r
-            z = self._adapters(torch.cat((h1_prev, h2_prev), 1), self.ad_w, self.ad_b, ctx)
-            h2 = torch.relu(torch.addmm(self.b2, h1, self.w2) + torch.mm(z[:, :kr], self.u2))
-            return torch.addmm(self.bq, h2, self.wq) + torch.mm(z[:, kr:], self.uq)
-        h2 = torch.relu(torch.addmm(self.b2, h1, self.w2) + torch.mm(h1_prev, self.u2))
-        return torch.addmm(self.bq, h2, self.wq) + torch.mm(h2_prev, self.uq)
+            t2, tq = gated_laterals(
+                prev[0], self.ad_w, self.ad_b, ctx, ((self.u2, self.b2), (self.uq, self.bq))
+            )
+        else:  # PNN: U h of all earlier columns, one product per layer, bias folded in
+            t2 = torch.addmm(self.b2, prev[0], self.u2)
+            tq = torch.addmm(self.bq, prev[1], self.uq)
+        h2 = torch.relu(torch.addmm(t2, h1, self.w2))
+        return torch.addmm(tq, h2, self.wq)
 
 
 class ProgressiveNet(nn.Module):
@@ -251,27 +256,45 @@ class ProgressiveNet(nn.Module):
             return None
         return torch.sigmoid(self._ctxw_frozen[:upto] @ states)
 
-    def features(
-        self, x: torch.Tensor, upto: int, states: torch.Tensor | None
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Concatenated hidden activations ``(h1, h2)``, each (B, upto*hidden), of columns < upto.
+    def features(self, x: torch.Tensor, upto: int, states: torch.Tensor | None) -> Prev:
+        """Hidden activations of the frozen columns ``< upto`` for the inputs ``x`` (B rows).
 
-        Only frozen columns may be asked for (``upto <= n_columns - 1``); no autograd graph.
+        PNN: ``(h1, h2)``, each (B, upto*hidden), the columns' activations side by side (each
+        lateral is then one product with the concatenated activations). BIARM: ``(stacked,)``,
+        one (2*upto, B, hidden) tensor of blocks ``h1_1 .. h1_upto, h2_1 .. h2_upto``, the
+        layout of the adapters' batched product (:func:`gated_laterals`). Take rows with
+        :meth:`Column.rows`. Only frozen columns may be asked for (``upto <= n_columns - 1``);
+        no autograd graph.
         """
         h = self.hidden
+        bsz = x.shape[0]
         with torch.no_grad():
-            h1 = torch.relu(
-                torch.addmm(self._b1_frozen[: upto * h], x, self._w1_frozen[:, : upto * h])
-            )
-            ctx = self.frozen_context(states, upto) if states is not None else None
-            h2s = []
+            pre = torch.addmm(self._b1_frozen[: upto * h], x, self._w1_frozen[:, : upto * h])
+            if self.gated:
+                out = torch.empty(2 * upto, bsz, h)
+                torch.clamp_min(pre.view(bsz, upto, h).transpose(0, 1), 0.0, out=out[:upto])
+                # column 0 has no laterals, hence no gate
+                gates = (
+                    self.frozen_context(states, upto) if upto > 1 and states is not None else None
+                )
+                for j in range(upto):
+                    col: Column = self.columns[j]  # type: ignore[assignment]
+                    if j:
+                        assert gates is not None
+                        (t2,) = gated_laterals(
+                            out[:j], col.ad_w[:j], col.ad_b[:j], gates[j], ((col.u2, col.b2),)
+                        )
+                    else:
+                        t2 = col.b2
+                    torch.clamp_min(torch.addmm(t2, out[j], col.w2), 0.0, out=out[upto + j])
+                return (out,)
+            h1 = torch.relu(pre)
+            parts = [h1]
             for j in range(upto):
-                col: Column = self.columns[j]  # type: ignore[assignment]
-                prev = h1[:, : j * h] if j else None
-                c = ctx[j] if ctx is not None else None
-                h2s.append(col.hidden2(h1[:, j * h : (j + 1) * h], prev, c))
-            h2 = h2s[0] if upto == 1 else torch.cat(h2s, 1)
-        return h1, h2
+                col = self.columns[j]  # type: ignore[assignment]
+                t2 = torch.addmm(col.b2, h1[:, : j * h], col.u2) if j else col.b2
+                parts.append(torch.relu(torch.addmm(t2, h1[:, j * h : (j + 1) * h], col.w2)))
+            return h1, parts[1] if upto == 1 else torch.cat(parts[1:], 1)
 
     def q(
         self,
@@ -288,11 +311,11 @@ class ProgressiveNet(nn.Module):
         column: Column = self.columns[col]  # type: ignore[assignment]
         if col == 0:
             return column(x)
-        h1p, h2p = self.features(x, col, states)
+        prev = self.features(x, col, states)
         if self.gated and ctx is None:
             assert states is not None
             ctx = column.context(states)
-        return column(x, h1p, h2p, ctx)
+        return column(x, prev, ctx)
 
     def make_target(self) -> Column:
         """A frozen copy of the current column (the DQN target network)."""
