@@ -176,6 +176,7 @@ def test_config_command_lists_keys():
     "args, exc, match",
     [
         (["--tasks", "NoSuchEnv-v9"], EvodevoError, "NoSuchEnv-v9"),
+        (["--tasks", "nosuchmod:Thing-v0"], EvodevoError, "PYTHONPATH"),
         (["--tasks", "Pendulum-v1"], EvodevoError, "only Discrete actions"),
         (["--tasks", "FrozenLake-v1"], EvodevoError, "only Box observations"),
         (["--set", "network.d_max=3"], EvodevoError, "exceeds d_max=3"),

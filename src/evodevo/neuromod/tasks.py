@@ -46,6 +46,11 @@ def make_env(env_id: str, max_steps: int | None) -> gym.Env:
             f"unknown or unusable environment id {env_id!r} ({str(exc).splitlines()[0]}); "
             "give a registered Gymnasium id such as CartPole-v1"
         ) from None
+    except ImportError as exc:  # a "module:EnvName-v0" id whose module cannot be imported
+        raise EvodevoError(
+            f"cannot make environment {env_id!r}: {str(exc).splitlines()[0]} (is the folder "
+            "holding the module on the Python path? e.g. PYTHONPATH=. evodevo ...)"
+        ) from None
 
 
 def _spaces(env_id: str, env: gym.Env) -> tuple[int, int]:
