@@ -114,7 +114,9 @@ def test_report_values_from_fixture_runs(tmp_path):
     from scipy.stats import fisher_exact
 
     p = fisher_exact([[32, 8], [24, 16]])[1]
-    assert f"{p:.3g}" in md and "blind GRN (no vision), seed 0: +20.0 points, not significantly" in md
+    assert (
+        f"{p:.3g}" in md and "blind GRN (no vision), seed 0: +20.0 points, not significantly" in md
+    )
     html = (tmp_path / "report.html").read_text()
     assert "<table>" in html and "80.0 %" in html
 
