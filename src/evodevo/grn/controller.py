@@ -217,12 +217,16 @@ class PlainGrnController:
 
 
 class ZeroPolicy:
-    """All-zero actions (SPEC §2.5 trivial policy)."""
+    """All-zero actions (SPEC §2.5 trivial policy); the base of every constant-action policy."""
 
     uses_encoder = False
 
     def __init__(self, config: Any, n_actions: int) -> None:
         self.n_actions = int(n_actions)
+
+    def constant_action(self) -> np.ndarray:
+        """The action sent on every step: zeros."""
+        return np.zeros(self.n_actions)
 
     def reset_state(self, genomes: Sequence[Any]) -> None:
         return None
@@ -236,7 +240,7 @@ class ZeroPolicy:
         rngs: Sequence[np.random.Generator],
         noisy: np.ndarray,
     ) -> np.ndarray:
-        return np.zeros((len(idx), self.n_actions))
+        return np.tile(self.constant_action(), (len(idx), 1))
 
 
 class RandomPolicy(ZeroPolicy):
@@ -263,17 +267,10 @@ class TurnPolicy(ZeroPolicy):
     that claims to use vision must clear, not the all-zero policy.
     """
 
-    def step(
-        self,
-        state: Any,
-        idx: np.ndarray,
-        features: np.ndarray | None,
-        proprio: np.ndarray,
-        rngs: Sequence[np.random.Generator],
-        noisy: np.ndarray,
-    ) -> np.ndarray:
-        a = np.zeros((len(idx), self.n_actions))
-        a[:, -1] = -1.0
+    def constant_action(self) -> np.ndarray:
+        """Zeros, and -1 on the last action dimension (the Kuka port's d-angle)."""
+        a = np.zeros(self.n_actions)
+        a[-1] = -1.0
         return a
 
 
