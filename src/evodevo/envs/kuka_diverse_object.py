@@ -9,7 +9,10 @@ of ``pybullet`` 3.2.7, with these differences:
   ``step(a) -> (obs, reward, terminated, truncated, info)``; every random draw (camera jitter,
   object choice, placement) comes from ``self.np_random``, so a seed fixes the episode;
 * the plane, table, tray and arm are loaded once; a reset removes the previous objects and puts
-  the arm back in its initial state instead of calling ``resetSimulation``;
+  the arm back in its initial state instead of calling ``resetSimulation``; every
+  ``rebuild_every`` resets the physics client is replaced by a fresh one, because PyBullet keeps
+  about 70 KB for every ``loadURDF`` even after ``removeBody`` and ``resetSimulation`` (a worker
+  grew by ~400 MB over one thesis-protocol evolution), and only a disconnect gives it back;
 * each instance owns its own ``pybullet.DIRECT`` client;
 * ``info["proprio"]``: end-effector x, y, z and finger opening, normalised (see
   :data:`PROPRIO_CENTRE`, :data:`PROPRIO_HALF_RANGE`); ``info["is_success"]``: reward == 1;
@@ -149,6 +152,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             not depend on earlier episodes of the same instance (a seed gives the same episode).
             ``False`` is the original's setting: the first episode of an instance then matches
             the original bit for bit, later ones depend on the instance's history.
+        rebuild_every: Replace the physics client by a freshly built world every this many
+            resets (0 = never), which bounds PyBullet's memory (see the module docstring). With
+            ``deterministic_pairs`` an episode is the same in a fresh or a reused world.
 
     Raises:
         ConfigError: An option is out of range.
@@ -171,12 +177,14 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         is_discrete: bool = False,
         urdf_root: str | None = None,
         deterministic_pairs: bool = True,
+        rebuild_every: int = 100,
     ) -> None:
         _check_int("num_objects", num_objects, 1)
         _check_int("max_steps", max_steps, 1)
         _check_int("action_repeat", action_repeat, 1)
         _check_int("width", width, 1)
         _check_int("height", height, 1)
+        _check_int("rebuild_every", rebuild_every, 0)
         _check_unit("camera_random", camera_random)
         _check_unit("block_random", block_random)
         if render_mode not in (None, "rgb_array"):
@@ -209,12 +217,27 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
                 -1.0, 1.0, (3 if self.height_hack else 4,), dtype=np.float32
             )
 
+        self.deterministic_pairs = bool(deterministic_pairs)
+        self.rebuild_every = int(rebuild_every)
+        self._connected = False
+        self._cid: int = -1
+        self._build_world()
+        self._ready = False
+        self._attempted_grasp = False
+        self._env_step = 0
+        self._view_matrix: Any = None
+        self._proj_matrix: Any = None
+
+    def _build_world(self) -> None:
+        """Connect a new DIRECT client and load the plane, table and arm (a fresh world)."""
+        if self._connected and p.isConnected(self._cid):
+            p.disconnect(self._cid)
         self._cid = p.connect(p.DIRECT)
         self._connected = True
         cid = self._cid
         p.setPhysicsEngineParameter(
             numSolverIterations=SOLVER_ITERATIONS,
-            deterministicOverlappingPairs=int(bool(deterministic_pairs)),
+            deterministicOverlappingPairs=int(self.deterministic_pairs),
             physicsClientId=cid,
         )
         p.setTimeStep(TIME_STEP, physicsClientId=cid)
@@ -232,11 +255,8 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._arm.load()
         self._object_uids: list[int] = []
         self._fresh = True
-        self._ready = False
-        self._attempted_grasp = False
-        self._env_step = 0
-        self._view_matrix: Any = None
-        self._proj_matrix: Any = None
+        self._resets_in_world = 0
+        self.worlds_built = getattr(self, "worlds_built", 0) + 1
 
     # ------------------------------------------------------------------ Gymnasium API
 
@@ -258,6 +278,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"reset options {sorted(options)} are not supported; pass settings to the constructor"
             )
         self._require_open()
+        if self.rebuild_every and self._resets_in_world >= self.rebuild_every:
+            self._build_world()
+        self._resets_in_world += 1
         rng = self.np_random
         cid = self._cid
         cr = self.camera_random
