@@ -104,7 +104,7 @@ def test_cli_evolve_and_evaluate_on_pendulum(tmp_path, kind):
     result = json.loads(res.output.strip().splitlines()[-1])
     assert result["controller"] == kind and set(result["baselines"]) == {"zero", "random", "turn"}
     rows = (out / "eval_train_0_episodes.csv").read_text().splitlines()
-    assert len(rows) == 1 + 3 * 2  # genome, zero and random on the same two seeds
+    assert len(rows) == 1 + 4 * 2  # genome, zero, random and turn on the same two seeds
     res = runner.invoke(app, ["grn", "plot", str(out), "--objects", "train"])
     assert res.exit_code == 0, res.output
     names = {p.rsplit("/", 1)[-1] for p in res.output.split()}
