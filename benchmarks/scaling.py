@@ -58,7 +58,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     from evodevo.parallel import set_single_thread
 
     set_single_thread()
-    population, episodes, generations = (4, 2, 2) if quick else (8, 4, 3)
+    population, episodes, generations = (4, 1, 2) if quick else (8, 4, 3)
     res: dict[str, Any] = {
         "population": population,
         "episodes": episodes,
