@@ -1,6 +1,6 @@
 """User-facing errors: one clear line that names the bad value and what to do."""
 
-__all__ = ["EvodevoError", "ConfigError", "CheckpointError"]
+__all__ = ["EvodevoError", "ConfigError", "CheckpointError", "env_module_error"]
 
 
 class EvodevoError(Exception):
@@ -13,3 +13,11 @@ class ConfigError(EvodevoError, ValueError):
 
 class CheckpointError(EvodevoError):
     """A checkpoint or saved artefact is missing, corrupt, or belongs to something else."""
+
+
+def env_module_error(env_id: str, exc: ImportError) -> EvodevoError:
+    """The error for a ``"module:EnvName-v0"`` id whose module cannot be imported."""
+    return EvodevoError(
+        f"cannot make environment {env_id!r}: {str(exc).splitlines()[0]} (is the folder "
+        "holding the module on the Python path? e.g. PYTHONPATH=. evodevo ...)"
+    )

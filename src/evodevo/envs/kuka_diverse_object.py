@@ -8,11 +8,13 @@ of ``pybullet`` 3.2.7, with these differences:
 * the Gymnasium API: ``reset(seed=, options=) -> (obs, info)`` and
   ``step(a) -> (obs, reward, terminated, truncated, info)``; every random draw (camera jitter,
   object choice, placement) comes from ``self.np_random``, so a seed fixes the episode;
-* the plane, table, tray and arm are loaded once; a reset removes the previous objects and puts
-  the arm back in its initial state instead of calling ``resetSimulation``; every
-  ``rebuild_every`` resets the physics client is replaced by a fresh one, because PyBullet keeps
-  about 70 KB for every ``loadURDF`` even after ``removeBody`` and ``resetSimulation`` (a worker
-  grew by ~400 MB over one thesis-protocol evolution), and only a disconnect gives it back;
+* every ``rebuild_every`` resets (default: every reset, like the original's
+  ``resetSimulation``) the physics client is replaced by a fresh one with the plane, table, tray
+  and arm: PyBullet keeps about 70 KB for every ``loadURDF`` even after ``removeBody`` and
+  ``resetSimulation`` (a worker grew by ~400 MB over one thesis-protocol evolution) and only a
+  disconnect gives it back, and a fresh world means no episode can depend on earlier ones;
+  between rebuilds a reset removes the previous objects and puts the arm back in its initial
+  state;
 * each instance owns its own ``pybullet.DIRECT`` client;
 * ``info["proprio"]``: end-effector x, y, z and finger opening, normalised (see
   :data:`PROPRIO_CENTRE`, :data:`PROPRIO_HALF_RANGE`); ``info["is_success"]``: reward == 1;
@@ -223,6 +225,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.rebuild_every = int(rebuild_every)
         self._connected = False
         self._cid: int = -1
+        self.worlds_built = 0
         self._build_world()
         self._ready = False
         self._attempted_grasp = False
@@ -258,7 +261,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._object_uids: list[int] = []
         self._fresh = True
         self._resets_in_world = 0
-        self.worlds_built = getattr(self, "worlds_built", 0) + 1
+        self.worlds_built += 1
 
     # ------------------------------------------------------------------ Gymnasium API
 

@@ -134,7 +134,8 @@ def evaluate_run(
         noise: std of visual-feature noise; > 0 adds a noisy test and the retention.
         seed: test seed (default ``evaluation.test_seed``).
         workers: worker processes.
-        baselines: also run the trivial policies (BASELINES: all-zero, uniform random, constant turn) on the same seeds.
+        baselines: also run the trivial policies (BASELINES: all-zero, uniform random,
+            constant turn) on the same seeds.
         baselines_from: a file of :func:`evaluate_baselines` for the same episodes, used
             instead of running the trivial policies again.
         backend: "local" (process pool) or "ray" (Ray actors); the results are the same.
@@ -170,10 +171,8 @@ def evaluate_run(
         if baselines_from is not None:
             base = _read_baselines(baselines_from, cfg, n, objects, test_seed)
         elif baselines:
-            for name in BASELINES:
-                res = ev.evaluate([None], clean_eps, baseline=name)
-                rows += _rows(name, clean_eps, res)
-                base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+            base, base_rows = _run_trivial(ev, clean_eps, list(BASELINES))
+            rows += base_rows
         env_steps = ev.env_steps
     summary = rate_dict(main.success[0])
     result = {
@@ -195,6 +194,19 @@ def evaluate_run(
     write_json(loaded.run / f"{name}.json", result)
     loaded.run.write_csv(f"{name}_episodes.csv", rows)
     return result
+
+
+def _run_trivial(
+    ev: Evaluator, episodes: list[Episode], names: Sequence[str]
+) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Trivial policies ``names`` on ``episodes``: their rate dicts and per-episode rows."""
+    base: dict[str, Any] = {}
+    rows: list[dict[str, Any]] = []
+    for name in names:
+        res = ev.evaluate([None], episodes, baseline=name)
+        rows += _rows(name, episodes, res)
+        base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+    return base, rows
 
 
 def _baseline_key(config: GrnConfig, n: int, objects: str, test_seed: int) -> dict[str, Any]:
@@ -227,10 +239,10 @@ def evaluate_baselines(
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     names = list(BASELINES) if policies is None else list(policies)
-    bad = [p for p in names if p not in BASELINES]
-    if bad or not names:
+    bad = [p for p in names if p not in BASELINES] or ([] if names else [""])
+    if bad:
         raise EvodevoError(
-            f"baseline policy {bad[0] if bad else ''!r} is not known; choose from {', '.join(BASELINES)}"
+            f"baseline policy {bad[0]!r} is not known; choose from {', '.join(BASELINES)}"
         )
     n = int(episodes if episodes is not None else config.evaluation.test_episodes)
     test_seed = int(seed if seed is not None else config.evaluation.test_seed)
@@ -251,10 +263,9 @@ def evaluate_baselines(
     if todo:
         eps = test_episodes(test_seed, n, objects == "test")
         with Evaluator(config, None, workers=workers) as ev:
-            for name in todo:
-                res = ev.evaluate([None], eps, baseline=name)
-                rows += _rows(name, eps, res)
-                base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+            new, new_rows = _run_trivial(ev, eps, todo)
+        base |= new
+        rows += new_rows
     result = {"key": key, "baselines": base, "machine": machine_info()}
     write_json(out, result)
     run.write_csv(csv_name, rows)

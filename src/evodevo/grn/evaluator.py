@@ -36,7 +36,7 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from evodevo.errors import EvodevoError
+from evodevo.errors import EvodevoError, env_module_error
 from evodevo.grn.encoder import Encoder
 from evodevo.parallel import make_pool
 from evodevo.seeding import derive
@@ -113,10 +113,7 @@ def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) ->
     except gym.error.Error as exc:
         raise EvodevoError(f"cannot make environment {env_id!r}: {exc}") from None
     except ImportError as exc:  # a "module:EnvName-v0" id whose module cannot be imported
-        raise EvodevoError(
-            f"cannot make environment {env_id!r}: {str(exc).splitlines()[0]} (is the folder "
-            "holding the module on the Python path? e.g. PYTHONPATH=. evodevo ...)"
-        ) from None
+        raise env_module_error(env_id, exc) from None
     except TypeError as exc:
         hint = (
             "; it has no held-out test objects: evaluate with --objects train"

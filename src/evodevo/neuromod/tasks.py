@@ -18,7 +18,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from evodevo.errors import EvodevoError
+from evodevo.errors import EvodevoError, env_module_error
 from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig, TaskConfig
 from evodevo.neuromod.padding import check_fits
 
@@ -47,10 +47,7 @@ def make_env(env_id: str, max_steps: int | None) -> gym.Env:
             "give a registered Gymnasium id such as CartPole-v1"
         ) from None
     except ImportError as exc:  # a "module:EnvName-v0" id whose module cannot be imported
-        raise EvodevoError(
-            f"cannot make environment {env_id!r}: {str(exc).splitlines()[0]} (is the folder "
-            "holding the module on the Python path? e.g. PYTHONPATH=. evodevo ...)"
-        ) from None
+        raise env_module_error(env_id, exc) from None
 
 
 def _spaces(env_id: str, env: gym.Env) -> tuple[int, int]:
