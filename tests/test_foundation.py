@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 from dataclasses import dataclass, field
 from typing import Literal
 
+import numpy as np
 import pytest
 
 from evodevo.config import doc, from_dict, load_config
@@ -76,7 +78,12 @@ def test_wilson_hand_worked():
 
 def test_bootstrap_and_summary():
     lo, hi = bootstrap_ci([1.0, 2.0, 3.0, 4.0], seed=1)
-    assert 1.0 <= lo < 2.5 < hi <= 4.0
+    # the exact bootstrap distribution: the mean of 4 draws with replacement, all 4**4 equally
+    # likely; its 2.5 % and 97.5 % quantiles are 1.5 and 3.5 (means lie on a 0.25 grid)
+    means = np.sort([np.mean(c) for c in itertools.product([1.0, 2.0, 3.0, 4.0], repeat=4)])
+    exact = (np.quantile(means, 0.025), np.quantile(means, 0.975))
+    assert exact == (1.5, 3.5)
+    assert abs(lo - exact[0]) <= 0.25 and abs(hi - exact[1]) <= 0.25
     s = summarise([1.0, 3.0])
     assert s.mean == 2.0 and s.std == pytest.approx(1.4142, abs=1e-4) and s.n == 2
 
