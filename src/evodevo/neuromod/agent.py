@@ -53,11 +53,11 @@ class BiarmAgent:
         if variant.modulated:
             self.modules = Neuromodulators(cfg.modules, obs_dim, seed, variant.ablated)
             ctx_w = self.modules.to_internal(ctx_w).tolist()
-            self._lr_w = self.modules.to_internal(lr_w).astype(np.float64)
+            lr_w = self.modules.to_internal(lr_w).tolist()
             self.states_t: torch.Tensor | None = self.modules.state_t
         else:
-            self._lr_w = np.asarray(lr_w, dtype=np.float64)
             self.states_t = None
+        self._lr_w = lr_w  # Eq. 3.7 weights, internal layout (Python floats: a 4-term sum)
         self.learned = variant.modulated and variant.gated and cfg.modules.learning == "learned"
         self.net: ProgressiveNet | SharedNet
         if variant.architecture == "shared":
@@ -126,7 +126,7 @@ class BiarmAgent:
         base = self.cfg.dqn.lr
         if self.modules is None:
             return base
-        return float(base * float(self.modules._s @ self._lr_w))
+        return base * sum(w * x for w, x in zip(self._lr_w, self.modules._s.tolist(), strict=True))
 
     def gate(self) -> float:
         """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
@@ -163,7 +163,8 @@ class BiarmAgent:
         if col > 0 and isinstance(self.net, ProgressiveNet):
             assert isinstance(column, Column) and isinstance(target, Column)
             prev = self.net.features(torch.cat((obs, nobs)), col, st)
-            ctx_on = ctx_nx = None
+            ctx_on: torch.Tensor | None = None
+            ctx_nx: float | None = None
             if self.net.gated:
                 assert st is not None
                 if self.learned:
@@ -171,8 +172,7 @@ class BiarmAgent:
                     ctx_on = column.context(self.modules.batch_targets(obs, rew, n_task))
                 else:
                     ctx_on = column.context(st)
-                with torch.no_grad():
-                    ctx_nx = target.context(st)
+                ctx_nx = target.context_value(st.tolist())  # no autograd: a float
             q_all = column(obs, column.rows(prev, 0, bsz), ctx_on)
             with torch.no_grad():
                 q_next = target(nobs, column.rows(prev, bsz, 2 * bsz), ctx_nx).max(1).values
@@ -197,6 +197,8 @@ class BiarmAgent:
         if self.modules is not None:
             set_lr(opt, self.lr())
         opt.step()
+        if self.learned and self.modules is not None and self.col > 0:
+            self.modules.refresh()  # the per-step update's matrices copy the trained weights
         self.grad_steps += 1
         if self.grad_steps % dqn.target_update == 0:
             target.load_state_dict(column.state_dict())

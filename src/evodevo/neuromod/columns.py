@@ -8,13 +8,16 @@ l-1 into layer l; SPEC §1.2). Lateral terms of earlier columns k < i:
 * BIARM (Eq. 3.8, 3.9): ``sum_k U_k (alpha_k * V_k h_k)`` with
   ``alpha_k = sigmoid(W_alpha,k h_k) * sigmoid(sum_m w_m s_m)``. ``V_k`` and ``W_alpha,k``
   (d -> r each, r = ``adapter_dim``) are stored as one stacked tensor, so all earlier columns'
-  adapters are one batched product (``einsum`` over k), and all ``U_k`` one matrix product of
-  the concatenated gated adapters. The context gate is a scalar per sample, so it scales the
-  summed lateral.
+  adapters are one batched product (``baddbmm`` over k), ``V h * sigmoid(W_alpha h)`` one
+  ``glu``, and all ``U_k`` one matrix product of the concatenated gated adapters. The context
+  gate is a scalar (or one per sample), so it scales the summed lateral; where no gradient
+  is needed (target network, frozen columns, acting) it is a Python float, the ``alpha`` of
+  that product.
 
 Frozen columns (SPEC §1.2) have ``requires_grad=False`` and are never given to an optimiser;
-their first layers are fused into one cached matrix, and only their hidden activations are
-computed during training (their heads are not needed by later columns).
+their first layers and their layer-2 adapters are fused into cached tensors (all frozen
+columns' adapters one batched product), and only their hidden activations are computed during
+training (their heads are not needed by later columns).
 
 >>> import torch
 >>> net = ProgressiveNet(obs_dim=4, hidden=8, gated=True, adapter_dim=2, seed=0)
@@ -26,6 +29,7 @@ torch.Size([5, 3])
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Sequence
 
 import torch
@@ -34,7 +38,7 @@ from torch import nn
 
 from evodevo.seeding import torch_gen
 
-__all__ = ["Column", "ProgressiveNet"]
+__all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals"]
 
 
 def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:
@@ -50,30 +54,47 @@ Heads = tuple[tuple[torch.Tensor, torch.Tensor], ...]
 Prev = tuple[torch.Tensor, ...]
 
 
+def context_value(weights: Sequence[float], states: Sequence[float]) -> float:
+    """Context gate ``sigmoid(sum_m w_m s_m)`` of Eq. 3.8 as a Python float (no autograd)."""
+    z = sum(w * x for w, x in zip(weights, states, strict=True))
+    return 1.0 / (1.0 + math.exp(-max(-60.0, min(60.0, z))))
+
+
 def gated_laterals(
-    feats: torch.Tensor, w: torch.Tensor, b: torch.Tensor, gate: torch.Tensor, heads: Heads
+    feats: torch.Tensor,
+    w: torch.Tensor,
+    b: torch.Tensor,
+    gate: torch.Tensor | float,
+    heads: Heads,
 ) -> tuple[torch.Tensor, ...]:
     """Eq. 3.8-3.9 for ``n`` stacked adapter blocks feeding ``len(heads)`` layers.
 
     ``feats`` (n, B, hidden) holds block j's input ``h_k``; ``w`` (n, hidden, 2r) = [V | W_alpha]
     and ``b`` (n, 1, 2r) their biases. With ``o = h_k [V | W_alpha] + b`` (one batched product
-    for all blocks), ``zc = V h_k * (sigmoid(W_alpha h_k) * gate)`` is ``alpha * V h`` of Eq. 3.8
-    (``gate`` the context gate: a scalar, or one per sample (B, 1)). Head g = ``(U, bias)``
-    takes the g-th equal share of the blocks and returns ``bias + [zc_s .. zc_e] U`` (Eq. 3.9,
-    all U_k of a layer in one product, the layer's bias folded in). ``split``/``unbind`` rather
-    than slicing keep the backward pass to one gather per split (no zero-filled copies).
+    for all blocks), ``glu(o) = V h_k * sigmoid(W_alpha h_k)`` and ``zc = glu(o) * gate`` is
+    ``alpha * V h`` of Eq. 3.8 (``gate`` the context gate: a scalar tensor, one per sample
+    (B, 1), or a Python float when no gradient is needed). Head g = ``(U, bias)`` takes the g-th
+    equal share of the blocks and returns ``bias + [zc_s .. zc_e] U`` (Eq. 3.9, all U_k of a
+    layer in one product, the layer's bias folded in; a float gate is the product's ``alpha``,
+    ``U (g z) = g (U z)``, one kernel fewer). ``unbind`` rather than slicing keeps the backward
+    pass to one gather (no zero-filled copies).
     """
     r = w.shape[2] // 2
-    v, a = torch.baddbmm(b, feats, w).split(r, 2)
-    cg = torch.sigmoid(a) * (gate.unsqueeze(0) if gate.dim() == 2 else gate)
-    zc = v * cg
+    zc = F.glu(torch.baddbmm(b, feats, w), 2)
+    alpha = 1.0
+    if isinstance(gate, float):
+        alpha = gate
+    else:
+        zc = zc * gate
     per = zc.shape[0] // len(heads)
     if per == 1:
         ms = zc.unbind(0)
     else:
         bsz = zc.shape[1]
         ms = tuple(z.transpose(0, 1).reshape(bsz, per * r) for z in zc.split(per, 0))
-    return tuple(torch.addmm(bias, m, u) for m, (u, bias) in zip(ms, heads, strict=True))
+    return tuple(
+        torch.addmm(bias, m, u, alpha=alpha) for m, (u, bias) in zip(ms, heads, strict=True)
+    )
 
 
 class Column(nn.Module):
@@ -140,6 +161,10 @@ class Column(nn.Module):
             return torch.sigmoid(torch.dot(states, self.ctx_w))
         return torch.sigmoid(states @ self.ctx_w).unsqueeze(1)
 
+    def context_value(self, states: Sequence[float]) -> float:
+        """:meth:`context` of scalar states as a Python float (no autograd)."""
+        return context_value(self.ctx_w.tolist(), states)
+
     def rows(self, prev: Prev, start: int, stop: int) -> Prev:
         """Rows ``start:stop`` (samples) of a :meth:`ProgressiveNet.features` result."""
         if self.gated:
@@ -151,12 +176,14 @@ class Column(nn.Module):
         self,
         x: torch.Tensor,
         prev: Prev | None = None,
-        ctx: torch.Tensor | None = None,
+        ctx: torch.Tensor | float | None = None,
     ) -> torch.Tensor:
         """Q-values (B, n_actions) of this column.
 
         ``prev`` holds the earlier columns' activations as :meth:`ProgressiveNet.features`
-        returns them (rows of this batch); ``ctx`` is the context gate (BIARM).
+        returns them (rows of this batch); ``ctx`` is the context gate (BIARM): a tensor from
+        :meth:`context` (or per sample), or a float from :meth:`context_value` without
+        autograd.
         """
         h1 = torch.relu(torch.addmm(self.b1, x, self.w1))
         if not self.n_prev:
@@ -209,7 +236,14 @@ class ProgressiveNet(nn.Module):
         self.columns = nn.ModuleList()
         self._w1_frozen = torch.empty(obs_dim, 0)
         self._b1_frozen = torch.empty(0)
-        self._ctxw_frozen = torch.empty(0, 4)
+        # BIARM: frozen columns' context weights (Python lists; None for column 0) and the
+        # layer-2 adapters of all frozen columns j >= 1 stacked block (j, k) for k < j, in the
+        # order (1,0), (2,0), (2,1), (3,0) ..., so the first upto*(upto-1)/2 blocks are those of
+        # columns < upto; ``_blk_src`` names the frozen h1_k each block reads.
+        self._ctxw_frozen: list[list[float] | None] = []
+        self._adw_frozen = torch.empty(0)
+        self._adb_frozen = torch.empty(0)
+        self._blk_src = torch.empty(0, dtype=torch.long)
 
     @property
     def n_columns(self) -> int:
@@ -240,21 +274,25 @@ class ProgressiveNet(nn.Module):
         return col
 
     def _refresh_frozen(self) -> None:
-        """Cache the fused first layers and context weights of the frozen columns."""
+        """Cache the fused first layers, adapters and context weights of the frozen columns."""
         cols = [c for c in self.columns if isinstance(c, Column)]
         if not cols:
             return
         self._w1_frozen = torch.cat([c.w1.detach() for c in cols], 1)
         self._b1_frozen = torch.cat([c.b1.detach() for c in cols])
         if self.gated:
-            rows = [c.ctx_w.detach() if c.n_prev else torch.zeros(4) for c in cols]
-            self._ctxw_frozen = torch.stack(rows)
+            self._ctxw_frozen = [c.ctx_w.detach().tolist() if c.n_prev else None for c in cols]
+            lat = [c for c in cols if c.n_prev]
+            if lat:
+                self._adw_frozen = torch.cat([c.ad_w.detach()[: c.n_prev] for c in lat])
+                self._adb_frozen = torch.cat([c.ad_b.detach()[: c.n_prev] for c in lat])
+                self._blk_src = torch.tensor([k for c in lat for k in range(c.n_prev)])
 
-    def frozen_context(self, states: torch.Tensor, upto: int) -> torch.Tensor | None:
-        """Context gates (upto,) of columns 0..upto-1 from the scalar states (BIARM only)."""
-        if not self.gated or upto == 0:
-            return None
-        return torch.sigmoid(self._ctxw_frozen[:upto] @ states)
+    def frozen_context(self, states: Sequence[float], upto: int) -> list[float]:
+        """Context gates of columns 0..upto-1 (Python floats; nan for column 0, no laterals)."""
+        return [
+            math.nan if w is None else context_value(w, states) for w in self._ctxw_frozen[:upto]
+        ]
 
     def features(self, x: torch.Tensor, upto: int, states: torch.Tensor | None) -> Prev:
         """Hidden activations of the frozen columns ``< upto`` for the inputs ``x`` (B rows).
@@ -273,19 +311,24 @@ class ProgressiveNet(nn.Module):
             if self.gated:
                 out = torch.empty(2 * upto, bsz, h)
                 torch.clamp_min(pre.view(bsz, upto, h).transpose(0, 1), 0.0, out=out[:upto])
-                # column 0 has no laterals, hence no gate
-                gates = (
-                    self.frozen_context(states, upto) if upto > 1 and states is not None else None
-                )
+                zc = out  # replaced by the gated adapters when upto > 1
+                gates: list[float] = []
+                t2: torch.Tensor
+                if upto > 1:
+                    assert states is not None
+                    gates = self.frozen_context(states.tolist(), upto)
+                    # all frozen columns' layer-2 adapters in one batched product
+                    nb = upto * (upto - 1) // 2
+                    src = out[:1] if nb == 1 else out.index_select(0, self._blk_src[:nb])
+                    zc = F.glu(torch.baddbmm(self._adb_frozen[:nb], src, self._adw_frozen[:nb]), 2)
                 for j in range(upto):
                     col: Column = self.columns[j]  # type: ignore[assignment]
-                    if j:
-                        assert gates is not None
-                        (t2,) = gated_laterals(
-                            out[:j], col.ad_w[:j], col.ad_b[:j], gates[j], ((col.u2, col.b2),)
-                        )
-                    else:
+                    if j == 0:  # column 0 has no laterals, hence no gate
                         t2 = col.b2
+                    else:
+                        s0 = j * (j - 1) // 2
+                        m = zc[s0] if j == 1 else zc[s0 : s0 + j].transpose(0, 1).reshape(bsz, -1)
+                        t2 = torch.addmm(col.b2, m, col.u2, alpha=gates[j])
                     torch.clamp_min(torch.addmm(t2, out[j], col.w2), 0.0, out=out[upto + j])
                 return (out,)
             h1 = torch.relu(pre)
@@ -312,10 +355,13 @@ class ProgressiveNet(nn.Module):
         if col == 0:
             return column(x)
         prev = self.features(x, col, states)
+        gate: torch.Tensor | float | None = ctx
         if self.gated and ctx is None:
             assert states is not None
-            ctx = column.context(states)
-        return column(x, prev, ctx)
+            # without autograd the gate is a float (one kernel fewer per lateral)
+            grad = torch.is_grad_enabled()
+            gate = column.context(states) if grad else column.context_value(states.tolist())
+        return column(x, prev, gate)
 
     def make_target(self) -> Column:
         """A frozen copy of the current column (the DQN target network)."""

@@ -13,10 +13,12 @@ Internally the modules are laid out as ``(DA, NE, 5HT, ACh)`` so that each stage
 contiguous slice; every public array (``states``, CSV columns, Eq. 3.7 weights) uses the
 order of :data:`~evodevo.neuromod.config.MODULE_NAMES` ``(DA, 5HT, NE, ACh)``.
 
-The per-step update (:meth:`Neuromodulators.step`) runs in NumPy on views that share memory
-with the torch parameters and state tensor, without autograd (a single observation through
-four 64-unit networks costs microseconds in NumPy and ten times more as torch ops). In
-``learned`` mode :meth:`Neuromodulators.batch_targets` computes the same networks on a
+The per-step update (:meth:`Neuromodulators.step`) runs in NumPy without autograd (a single
+observation through four 64-unit networks costs microseconds in NumPy and ten times more as
+torch ops): each stage is ``relu(x A) B`` with ``x = [phi(s), 1, e_1, e_2]`` and per-stage
+copies ``A``, ``B`` of the weights (biases and extra-input weights as rows of ``A``), rebuilt
+whenever the parameters change, so one step is four vector-matrix products and two ``relu``.
+In ``learned`` mode :meth:`Neuromodulators.batch_targets` computes the same networks on a
 mini-batch with autograd, so that the TD loss trains them through the context gate (Eq. 3.8).
 
 An ablated module (SPEC §1.5) keeps its state at ``ablated_value`` (0.5): its network is not
@@ -105,7 +107,6 @@ class Neuromodulators(nn.Module):
         self._tau = np.array([dict(zip(MODULE_NAMES, cfg.taus, strict=True))[m] for m in LAYOUT])
         self._tau_eff = (self._tau * active).astype(np.float32)
         self._tau_py = [float(x) for x in self._tau_eff]
-        self._ext = np.zeros((2, 1), dtype=np.float32)
         # State tensor (internal layout) and a NumPy view sharing its memory.
         self.state_t = torch.full((4,), float(cfg.initial_state))
         self.state_t[torch.from_numpy(~active)] = float(cfg.ablated_value)
@@ -115,13 +116,45 @@ class Neuromodulators(nn.Module):
         self._ablated_mask_t = torch.from_numpy(~active)
 
     def _views(self) -> None:
-        """NumPy views of the parameters (shared memory: optimiser steps are seen at once)."""
+        """Per-stage matrices of the per-step update, rebuilt from the parameters.
+
+        Stage ``g`` (0: DA, NE; 1: 5HT, ACh) is ``logits = relu(x_g A_g) B_g + b2_g`` with
+        ``x_g = [phi(s), 1, e_first, e_second]``: ``A_g`` (d+3, 2h) stacks the two modules'
+        observation weights, their first-layer biases and their extra-input weights (each in
+        its own row, zero under the other module), ``B_g`` (2h, 2) is block-diagonal with the
+        two output weight vectors. The same numbers as the parameters, laid out so that a
+        stage is two vector-matrix products. Copies, not views: :meth:`step` rebuilds them
+        when a parameter's version counter moved (``load_state_dict``, in-place edits), and
+        :meth:`refresh` after an optimiser step (fused Adam does not count versions).
+        """
         d, h = self.obs_dim, self.hidden
-        self._w1o = self.w1.detach().numpy()[:d]
-        self._wex = self.w1.detach().numpy()[d].reshape(4, h)
-        self._b1 = self.b1.detach().numpy()
-        self._w2 = self.w2.detach().numpy()
-        self._b2 = self.b2.detach().numpy()
+        w1 = self.w1.detach().numpy()
+        b1 = self.b1.detach().numpy()
+        w2 = self.w2.detach().numpy()
+        a = np.zeros((2, d + 3, 2 * h), dtype=np.float32)
+        b = np.zeros((2, 2 * h, 2), dtype=np.float32)
+        for g in range(2):
+            cols = slice(2 * g * h, 2 * (g + 1) * h)
+            a[g, :d] = w1[:d, cols]
+            a[g, d] = b1[cols]
+            for j in range(2):
+                m = 2 * g + j
+                a[g, d + 1 + j, j * h : (j + 1) * h] = w1[d, m * h : (m + 1) * h]
+                b[g, j * h : (j + 1) * h, j] = w2[m]
+        self._a = (a[0], a[1])
+        self._bo = (b[0], b[1])
+        self._b2py = [float(x) for x in self.b2.detach()]
+        self._z = np.empty(2 * h, dtype=np.float32)
+        self._x = np.zeros(d + 3, dtype=np.float32)
+        self._x[d] = 1.0
+        self._versions = self._param_versions()
+
+    def _param_versions(self) -> tuple[int, ...]:
+        return (self.w1._version, self.b1._version, self.w2._version, self.b2._version)
+
+    def refresh(self) -> None:
+        """Rebuild the per-step matrices (after an optimiser step on the module networks)."""
+        self._views()
 
     # ----------------------------------------------------------------- per-step update
     def start_task(self) -> None:
@@ -135,34 +168,33 @@ class Neuromodulators(nn.Module):
         received for the action taken in it. 5HT reads the DA state updated in this call,
         ACh the NE state updated in this call.
         """
+        if self._versions != self._param_versions():
+            self._views()
         s = self._s
         tau = self._tau_py
-        ext = self._ext
-        pre = np.dot(obs, self._w1o)
-        pre += self._b1
-        p = pre.reshape(4, self.hidden)
+        b2 = self._b2py
+        x, z, a, bo = self._x, self._z, self._a, self._bo
+        d = self.obs_dim
+        x[:d] = obs
         # stage 1: DA (extra input r), NE (extra input n_task)
-        ext[0, 0] = reward
-        ext[1, 0] = self.n_task
-        z = p[:2] + ext * self._wex[:2]
+        x[d + 1] = reward
+        x[d + 2] = self.n_task
+        np.dot(x, a[0], out=z)
         np.maximum(z, 0.0, out=z)
-        l_da, l_ne = ((z * self._w2[:2]).sum(1) + self._b2[:2]).tolist()
-        s_da = float(s[0])
-        s_ne = float(s[1])
-        s_da += tau[0] * (_sig(l_da) - s_da)
-        s_ne += tau[1] * (_sig(l_ne) - s_ne)
+        l_da, l_ne = np.dot(z, bo[0]).tolist()
+        s_da, s_ne, s_5ht, s_ach = s.tolist()
+        s_da += tau[0] * (_sig(l_da + b2[0]) - s_da)
+        s_ne += tau[1] * (_sig(l_ne + b2[1]) - s_ne)
         s[0] = s_da
         s[1] = s_ne
         # stage 2: 5HT (extra input s_DA just updated), ACh (extra input s_NE just updated)
-        ext[0, 0] = s[0]
-        ext[1, 0] = s[1]
-        z = p[2:] + ext * self._wex[2:]
+        x[d + 1] = s[0]
+        x[d + 2] = s[1]
+        np.dot(x, a[1], out=z)
         np.maximum(z, 0.0, out=z)
-        l_5ht, l_ach = ((z * self._w2[2:]).sum(1) + self._b2[2:]).tolist()
-        s_5ht = float(s[2])
-        s_ach = float(s[3])
-        s[2] = s_5ht + tau[2] * (_sig(l_5ht) - s_5ht)
-        s[3] = s_ach + tau[3] * (_sig(l_ach) - s_ach)
+        l_5ht, l_ach = np.dot(z, bo[1]).tolist()
+        s[2] = s_5ht + tau[2] * (_sig(l_5ht + b2[2]) - s_5ht)
+        s[3] = s_ach + tau[3] * (_sig(l_ach + b2[3]) - s_ach)
         self.n_task *= self.cfg.novelty_decay
 
     # ----------------------------------------------------------------- learned mode
