@@ -7,8 +7,8 @@ baselines (issue 4) swap the column stack for one shared body with per-task head
 (:class:`~evodevo.neuromod.shared_net.SharedNet`); ``ewc`` adds the Eq. 2.4 penalty to every
 gradient step and consolidates the Fisher at the end of each task (:meth:`end_task`).
 
-Hot path (per environment step): :meth:`act` (greedy forward under ``no_grad`` on a
-preallocated tensor), :meth:`observe` (module update in NumPy), :meth:`update` (one DQN
+Hot path (per environment step): :meth:`act` (greedy forward in NumPy on a preallocated
+row, :meth:`~evodevo.neuromod.columns.ProgressiveNet.q_np`), :meth:`observe` (module update in NumPy), :meth:`update` (one DQN
 gradient step). Frozen columns are computed once per update for the mini-batch states and
 next states together, without autograd.
 """
@@ -142,8 +142,12 @@ class BiarmAgent:
         """Epsilon-greedy action for the observation already written into ``obs_np``."""
         if rng.random() < eps:
             return int(rng.integers(self.net.current.n_actions))
+        net = self.net
+        if isinstance(net, ProgressiveNet):  # NumPy forward: batch 1 is per-op overhead
+            st = self.modules._s.tolist() if self.modules is not None else None
+            return int(net.q_np(self.obs_np, self.col, st).argmax())
         with torch.no_grad():
-            return int(self.net.q(self.obs_t, self.col, self.states_t).argmax())
+            return int(net.q(self.obs_t, self.col, self.states_t).argmax())
 
     def observe(self, obs: np.ndarray, reward: float) -> None:
         """Module update for one environment step (Eq. 3.1-3.6); no-op for PNN."""

@@ -32,8 +32,10 @@ import copy
 import math
 from collections.abc import Sequence
 
+import numpy as np
 import torch
 import torch.nn.functional as F
+from scipy.special import expit
 from torch import nn
 
 from evodevo.seeding import torch_gen
@@ -244,6 +246,7 @@ class ProgressiveNet(nn.Module):
         self._adw_frozen = torch.empty(0)
         self._adb_frozen = torch.empty(0)
         self._blk_src = torch.empty(0, dtype=torch.long)
+        self._np: dict[int, dict[str, np.ndarray]] = {}  # NumPy views for :meth:`q_np`
 
     @property
     def n_columns(self) -> int:
@@ -275,6 +278,7 @@ class ProgressiveNet(nn.Module):
 
     def _refresh_frozen(self) -> None:
         """Cache the fused first layers, adapters and context weights of the frozen columns."""
+        self._np = {}
         cols = [c for c in self.columns if isinstance(c, Column)]
         if not cols:
             return
@@ -362,6 +366,83 @@ class ProgressiveNet(nn.Module):
             grad = torch.is_grad_enabled()
             gate = column.context(states) if grad else column.context_value(states.tolist())
         return column(x, prev, gate)
+
+    def _np_views(self, col: int) -> dict[str, np.ndarray]:
+        """NumPy views (shared memory) of column ``col``'s parameters and the frozen caches."""
+        views = self._np.get(col)
+        if views is None:
+            c: Column = self.columns[col]  # type: ignore[assignment]
+            views = {n: p.detach().numpy() for n, p in c.named_parameters()}
+            views["w1f"] = self._w1_frozen.numpy()
+            views["b1f"] = self._b1_frozen.numpy()
+            if self.gated and col > 1:
+                views["adwf"] = self._adw_frozen.numpy()
+                views["adbf"] = self._adb_frozen.numpy()
+                views["src"] = self._blk_src.numpy()
+            self._np[col] = views
+        return views
+
+    def q_np(self, x: np.ndarray, col: int, states: Sequence[float] | None) -> np.ndarray:
+        """:meth:`q` of ONE padded observation ``x`` (float32, ``obs_dim``) in NumPy.
+
+        The same equations as :meth:`features` and :meth:`Column.forward` with float gates
+        (last-bit rounding aside), for acting: at batch 1 every torch operation costs several
+        times its NumPy equivalent. ``states`` are the four scalar states (internal layout;
+        BIARM only). Returns the Q-values (n_actions,) of column ``col``.
+        """
+        v = self._np_views(col)
+        h1 = x @ v["w1"]
+        h1 += v["b1"]
+        np.maximum(h1, 0.0, out=h1)
+        if col == 0:
+            h2 = h1 @ v["w2"]
+            h2 += v["b2"]
+            np.maximum(h2, 0.0, out=h2)
+            return h2 @ v["wq"] + v["bq"]
+        h = self.hidden
+        feats = np.empty((2 * col, h), dtype=np.float32)  # frozen h1_0.., then h2_0..
+        hf = x @ v["w1f"][:, : col * h]
+        hf += v["b1f"][: col * h]
+        np.maximum(hf, 0.0, out=feats[:col].reshape(-1))
+        gates: list[float] = []
+        zf = feats
+        if self.gated:
+            assert states is not None
+            gates = self.frozen_context(states, col)
+            if col > 1:  # all frozen columns' layer-2 adapters in one batched product
+                nb = col * (col - 1) // 2
+                of = np.matmul(feats[v["src"][:nb], None], v["adwf"][:nb])[:, 0]
+                of += v["adbf"][:nb, 0]
+                r = of.shape[1] // 2
+                zf = of[:, :r] * expit(of[:, r:])
+        for j in range(col):
+            fv = self._np_views(j)
+            t = feats[j] @ fv["w2"]
+            t += fv["b2"]
+            if j and self.gated:
+                s0 = j * (j - 1) // 2
+                t += gates[j] * (zf[s0 : s0 + j].reshape(-1) @ fv["u2"])
+            elif j:
+                t += feats[:j].reshape(-1) @ fv["u2"]
+            np.maximum(t, 0.0, out=feats[col + j])
+        if self.gated:
+            assert states is not None
+            o = np.matmul(feats[:, None], v["ad_w"])[:, 0]
+            o += v["ad_b"][:, 0]
+            r = o.shape[1] // 2
+            zc = o[:, :r] * expit(o[:, r:])
+            g = context_value(v["ctx_w"].tolist(), states)
+            t2 = g * (zc[:col].reshape(-1) @ v["u2"])
+            tq = g * (zc[col:].reshape(-1) @ v["uq"])
+        else:
+            t2 = feats[:col].reshape(-1) @ v["u2"]
+            tq = feats[col:].reshape(-1) @ v["uq"]
+        t2 += v["b2"]
+        t2 += h1 @ v["w2"]
+        np.maximum(t2, 0.0, out=t2)
+        tq += v["bq"]
+        tq += t2 @ v["wq"]
+        return tq
 
     def make_target(self) -> Column:
         """A frozen copy of the current column (the DQN target network)."""
