@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test install lint bench clean
+.PHONY: run test install lint bench orig-venv clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -27,5 +27,11 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks --json
 
+# The original pybullet_envs Kuka env for benchmarks/env_speed.py: it needs the dead gym 0.23.1,
+# so it lives in its own venv and is never a dependency of evodevo (SPEC §3).
+orig-venv:
+	test -x .venv-orig/bin/python || $(PY) -m venv .venv-orig
+	.venv-orig/bin/pip install -q pybullet==3.2.7 gym==0.23.1 'setuptools<82' numpy
+
 clean:
-	rm -rf $(VENV) runs
+	rm -rf $(VENV) .venv-orig runs

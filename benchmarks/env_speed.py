@@ -50,12 +50,21 @@ __all__ = [
 ]
 
 POLICIES = ("zero", "down", "random")
+#: ``make orig-venv`` creates this venv beside the checkout's ``.venv``.
+REPO_ORIG_PYTHON = str(
+    __import__("pathlib").Path(__file__).resolve().parents[1] / ".venv-orig/bin/python"
+)
 DEFAULT_ORIG_PYTHON = "/work/origvenv/bin/python"
 
 
 def orig_python(explicit: str | None = None) -> str | None:
     """The isolated venv's Python that can import the original environment, if there is one."""
-    for cand in (explicit, os.environ.get("EVODEVO_ORIG_PYTHON"), DEFAULT_ORIG_PYTHON):
+    for cand in (
+        explicit,
+        os.environ.get("EVODEVO_ORIG_PYTHON"),
+        REPO_ORIG_PYTHON,
+        DEFAULT_ORIG_PYTHON,
+    ):
         if cand and os.path.exists(cand):
             return cand
     return None
@@ -256,8 +265,8 @@ def run(
         res["orig_episodes_per_s"] = None
         res["orig_success"] = None
         res["note"] = (
-            "original not run: no isolated venv (set --orig-python or EVODEVO_ORIG_PYTHON, or "
-            "create /work/origvenv with pybullet==3.2.7 gym==0.23.1 'setuptools<82' numpy)"
+            "original not run: no isolated venv (run `make orig-venv`, or set --orig-python or "
+            "EVODEVO_ORIG_PYTHON to a Python with pybullet==3.2.7 gym==0.23.1 'setuptools<82')"
         )
     res["per_policy_success"] = {
         pol: {w: sum(v) / len(v) for w, v in d.items()} for pol, d in per_policy.items()

@@ -143,6 +143,12 @@ def _ray_die_once(x: int) -> int:
     return x * x
 
 
+def _niceness(_: int) -> int:
+    """The process' nice value as ``ps`` shows it (``os.nice(0)`` reads only this thread's)."""
+    with open(f"/proc/{os.getpid()}/stat") as fh:
+        return int(fh.read().rsplit(")", 1)[1].split()[16])
+
+
 def test_ray_pool_matches_local_and_survives_dead_actor(tmp_path, monkeypatch):
     pytest.importorskip("ray")
     from evodevo.parallel import make_pool
@@ -154,6 +160,9 @@ def test_ray_pool_matches_local_and_survives_dead_actor(tmp_path, monkeypatch):
         assert pool.map(_square, range(5)) == expected
         assert pool.map(_ray_die_once, [0, 1, 2]) == [0, 1, 4]
         assert pool.restarts >= 1
+        # Ray's default would renice its workers to 15 (starved beside any busy process)
+        if os.path.exists("/proc/self/stat"):
+            assert pool.map(_niceness, [0, 1]) == [_niceness(0)] * 2
 
 
 def test_make_pool_rejects_unknown_backend():
