@@ -228,3 +228,36 @@ def test_report_pairs_controls_on_the_same_episodes(tmp_path):
     # the blind control has no per-episode file: no paired entry, only Fisher
     row = next(line for line in md.splitlines() if line.startswith("| blind GRN"))
     assert row.endswith("| — |")
+
+
+def test_kuka_runs_are_paired_with_trivial_policies_and_the_grn(tmp_path):
+    """Each baseline run: points over each trivial policy and the same-seed GRN, McNemar p."""
+    from evodevo.reproduce.report import kuka_paired
+
+    cfg = _fixture(tmp_path)
+    g = tmp_path / "grn"
+    _episodes_csv(g / "plain_s0" / "eval_test_0.03_episodes.csv", {"genome": [1] * 32 + [0] * 8})
+    _episodes_csv(
+        g / "baselines_test_episodes.csv",
+        {"zero": [1] * 12 + [0] * 28, "random": [1] * 10 + [0] * 30, "turn": [0] * 8 + [1] * 32},
+    )
+    run = tmp_path / "kuka" / "ppo_x1_s0"
+    run.mkdir(parents=True)
+    # PPO wins episodes 0..19: vs zero 8 vs 0 discordant, vs GRN 0 vs 12
+    _episodes_csv(run / "eval_test_0_episodes.csv", {"genome": [1] * 20 + [0] * 20})
+    (run / "repro_test_clean.json").write_text(json.dumps(_rate(20, 40) | {"episodes": 40}))
+    (run / "summary.json").write_text(json.dumps({"env_steps": 1234}))
+    (run / "config.json").write_text(json.dumps({"config": {"seed": 0, "method": "ppo"}}))
+    lines = kuka_paired(tmp_path, cfg, [run])
+    row = next(line for line in lines if line.startswith("| ppo |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[:3] == ["ppo", "0", "1234"] and cells[3].startswith("50.0 % [")
+    assert cells[4] == "+20.0 (p = 0.0078)"  # 2 * 0.5**8
+    assert cells[5] == f"+25.0 (p = {2 * 0.5**10:.2g})"  # random: 10 vs 0 discordant
+    # turn wins 8..39, PPO 0..19: PPO-only 0..7 (8), turn-only 20..39 (20)
+    from scipy.stats import binomtest
+
+    p_turn = binomtest(8, 28, 0.5).pvalue
+    assert cells[6] == f"-30.0 (p = {p_turn:.2g})"
+    assert cells[7] == f"-30.0 (p = {2 * 0.5**12:.2g})"
+    assert "all-zero actions 30.0 % [" in lines[0]

@@ -21,7 +21,14 @@ from evodevo.reproduce.budget import ReproduceConfig
 from evodevo.runs import atomic_write_text, machine_info
 from evodevo.stats import fisher_exact, mcnemar_exact, rate
 
-__all__ = ["write_report", "grn_section", "biarm_section", "markdown_to_html", "THESIS_GRN"]
+__all__ = [
+    "write_report",
+    "grn_section",
+    "biarm_section",
+    "kuka_paired",
+    "markdown_to_html",
+    "THESIS_GRN",
+]
 
 #: Thesis Chapter 4 numbers (Table 4.2 and Section 4.6.2): test success on *training* objects
 #: over 40 episodes, the noisy success and the retention.
@@ -223,21 +230,27 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         k2, n2 = int(t["successes"]), int(t["episodes"])
         p = fisher_exact(kc, nc, k2, n2)
         paired = []
+        mcn: list[tuple[float, float]] = []
         for s, gs in grn_eps.items():
             if ep is not None and len(ep) == len(gs):
                 d = (sum(gs) - sum(ep)) / len(gs)
-                paired.append(f"s{s}: {100 * d:+.1f} (p = {mcnemar_exact(gs, ep):.2g})")
+                pm = mcnemar_exact(gs, ep)
+                mcn.append((d, pm))
+                paired.append(f"s{s}: {100 * d:+.1f} (p = {pm:.2g})")
         ctrl_rows.append(
             f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(paired) or '—'} |"
         )
-        diffs.append((title, kc / nc - k2 / n2, p))
+        diffs.append((title, kc / nc - k2 / n2, p, mcn))
     lines += [
         "### Does the GRN use vision? Controls evolved with the same budget (SPEC §2.5)",
         "",
         "The last column pairs each GRN seed with the policy on the same test episodes: the "
         "difference in points and the exact McNemar p.",
         "",
-        "| policy | test success [95 % CI] | Fisher p vs pooled GRN | GRN − policy per GRN seed, points (McNemar p) |",
+        "The Fisher column treats the pooled GRN episodes as independent of the policy's, though "
+        "they share the test seeds; it is indicative only where a paired entry exists.",
+        "",
+        "| policy | test success [95 % CI] | Fisher p vs pooled GRN (unpaired) | GRN − policy per GRN seed, points (McNemar p) |",
         "|---|---|---|---|",
         *ctrl_rows,
         "",
@@ -248,7 +261,15 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "- Under the benchmark's height hack the arm descends and grasps by itself, so a do-nothing "
         "policy already succeeds often; a controller's value is its margin over the rows above.",
     ]
-    for title, d, p in diffs:
+    for title, d, p, mcn in diffs:
+        if mcn:  # paired on the same episodes: the verdict is per GRN seed (exact McNemar)
+            sig = sum(pm < 0.05 for _, pm in mcn)
+            per = ", ".join(f"{100 * dd:+.1f}" for dd, _ in mcn)
+            lines.append(
+                f"- GRN vs {title}: {per} points per GRN seed; significantly different "
+                f"(McNemar p < 0.05) in {sig} of {len(mcn)} seeds."
+            )
+            continue
         verdict = "significantly" if p < 0.05 else "not significantly"
         lines.append(
             f"- GRN vs {title}: {100 * d:+.1f} points, {verdict} different (Fisher p = {p:.3g})."
@@ -310,6 +331,7 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         table, runs = write_table(tested, out / "kuka" / f"table_x{scale:g}")
         title = f"### Budget {scale:g}× the GRN's environment steps"
         lines += [markdown(table, runs, 0.5, title=title), ""]
+        lines += kuka_paired(out, cfg, [Path(d) for d in tested if Path(d).parent.name == "kuka"])
         wrote = True
     if not wrote:
         lines += [
@@ -317,6 +339,64 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
             "",
         ]
     return lines
+
+
+def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[str]:
+    """Each tested baseline run against the trivial policies and the GRN on the same episodes.
+
+    Differences in points with the exact McNemar p (SPEC §2.5: every table carries its trivial
+    baselines); the GRN is the first controller's run of the same seed (whose env steps set the
+    baseline's budget). Runs without a per-episode file are left out.
+    """
+    gdir = out / "grn"
+    g = cfg.grn
+    triv = {n: _successes(gdir / "baselines_test_episodes.csv", n) for n in TRIVIAL_TITLES}
+    rows = []
+    for d in run_dirs:
+        res = _load(d / "repro_test_clean.json")
+        ep = _successes(d / "eval_test_0_episodes.csv", "genome")
+        summ = _load(d / "summary.json") or {}
+        conf = (_load(d / "config.json") or {}).get("config", {})
+        if res is None or ep is None:
+            continue
+        seed = int(conf.get("seed", -1))
+        cells = []
+        for name in TRIVIAL_TITLES:
+            other = triv.get(name)
+            cells.append(_paired_cell(ep, other))
+        gs = _successes(
+            gdir / f"{g.controllers[0]}_s{seed}" / "eval_test_0.03_episodes.csv", "genome"
+        )
+        cells.append(_paired_cell(ep, gs))
+        rows.append(
+            f"| {conf.get('method', d.name)} | {seed} | {summ.get('env_steps', '?')} | "
+            f"{_pct(res)} | " + " | ".join(cells) + " |"
+        )
+    if not rows:
+        return []
+    heads = " | ".join(f"− {TRIVIAL_TITLES[n].split(' (')[0]}" for n in TRIVIAL_TITLES)
+    rates = []
+    for name, title in TRIVIAL_TITLES.items():
+        t = triv.get(name)
+        if t:
+            rates.append(f"{title} {rate(sum(t), len(t)).fmt()}")
+    return [
+        "Paired on the same test episodes: the run's success minus the policy's, in points "
+        "(exact McNemar p, uncorrected). GRN: the plain GRN of the same seed, whose env steps set "
+        "the budget. Trivial policies on these episodes: " + "; ".join(rates) + ".",
+        "",
+        f"| run | seed | env steps | success [95 % CI] | {heads} | − GRN same seed |",
+        "|---|---|---|---|" + "---|" * (len(TRIVIAL_TITLES) + 1),
+        *rows,
+        "",
+    ]
+
+
+def _paired_cell(a: list[int], b: list[int] | None) -> str:
+    """``+d.d (p = x)`` for two per-episode success lists of the same episodes, else ``—``."""
+    if b is None or len(a) != len(b):
+        return "—"
+    return f"{100 * (sum(a) - sum(b)) / len(a):+.1f} (p = {mcnemar_exact(a, b):.2g})"
 
 
 def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -> Path:
