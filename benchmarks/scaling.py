@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
 import sys
 import tempfile
 import time
@@ -83,13 +82,9 @@ def run(quick: bool = False) -> dict[str, Any]:
             # on its own: the evolution then pays only for its actors, as the pool pays only
             # for its processes. The evolution reuses the running instance (RayPool).
             t0 = time.perf_counter()
-            ray.init(
-                num_cpus=2,
-                include_dashboard=False,
-                log_to_driver=False,
-                _node_ip_address="127.0.0.1",
-                runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}},
-            )
+            from evodevo.ray_pool import local_ray_options
+
+            ray.init(include_dashboard=False, log_to_driver=False, **local_ray_options(2))
             res["ray_start_s"] = round(time.perf_counter() - t0, 2)
             try:
                 tr, hr, sr = _evolve("ray", 2, population, episodes, generations, Path(tmp) / "r2")

@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["RayPool"]
+__all__ = ["RayPool", "local_ray_options"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -50,6 +50,23 @@ class _Runner:
         import os
 
         return os.getpid()
+
+
+def local_ray_options(num_cpus: int) -> dict[str, Any]:
+    """``ray.init`` options of a private local Ray instance (also used by the benchmarks).
+
+    Loopback only; workers see the driver's ``sys.path`` (as the spawn-based local pool does),
+    so functions from any importable module run. Ray renices its workers to 15 by default:
+    beside any other busy process (e.g. a second experiment) they then get a few per cent of a
+    core (measured: 2 Ray actors took 518 s where 2 pool workers took 49 s on a loaded
+    machine). Our workers are the job, so they run at the driver's priority.
+    """
+    return {
+        "num_cpus": num_cpus,
+        "_node_ip_address": "127.0.0.1",
+        "runtime_env": {"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}},
+        "_system_config": {"worker_niceness": 0},
+    }
 
 
 class RayPool:
@@ -83,18 +100,7 @@ class RayPool:
         if not self.ray.is_initialized():
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
             if address is None:
-                # A private instance on loopback; workers see the driver's sys.path (as the
-                # spawn-based local pool does), so functions from any importable module run.
-                kwargs["num_cpus"] = workers
-                kwargs["_node_ip_address"] = "127.0.0.1"
-                kwargs["runtime_env"] = {
-                    "env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
-                }
-                # Ray renices its workers to 15 by default: beside any other busy process
-                # (e.g. a second experiment) they then get a few per cent of a core. Measured
-                # here: 2 Ray actors took 518 s where 2 pool workers took 49 s on a loaded
-                # machine. Our workers are the job, so they run at the driver's priority.
-                kwargs["_system_config"] = {"worker_niceness": 0}
+                kwargs.update(local_ray_options(workers))
             else:
                 kwargs["address"] = address
             try:
