@@ -40,7 +40,13 @@ def _evolve(
         None,
         {
             "seed": 0,
-            "evolution": {"population": population, "generations": generations},
+            # no early-stop retest: its 20 extra episodes would come whenever a 1-episode
+            # evaluation happens to succeed, so the workload would depend on luck
+            "evolution": {
+                "population": population,
+                "generations": generations,
+                "early_stop": False,
+            },
             "evaluation": {"episodes": episodes},
         },
     )
