@@ -191,6 +191,8 @@ def test_reproduce_tiny_end_to_end(tmp_path):
         "| ppo |",
         "| neat |",
         "| neuromodulated |",
+        "Where we differ and why (1×)",
+        "Against the constant turn,",
     ):
         assert needle in md
     assert "(no " not in md
@@ -261,3 +263,7 @@ def test_kuka_runs_are_paired_with_trivial_policies_and_the_grn(tmp_path):
     assert cells[6] == f"-30.0 (p = {p_turn:.2g})"
     assert cells[7] == f"-30.0 (p = {2 * 0.5**12:.2g})"
     assert "all-zero actions 30.0 % [" in lines[0]
+    assert (
+        "Against the constant turn, 0 of 1 runs are significantly better and 1 significantly worse"
+        in "\n".join(lines)
+    )
