@@ -7,15 +7,7 @@ import torch
 
 from evodevo.neuromod.columns import ProgressiveNet
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """One torch thread, as the CLI and workers use (two threads on a loaded 2-core box
-    make these small networks many times slower); restored afterwards."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _net(gated: bool, hidden: int = 16, r: int = 4) -> ProgressiveNet:

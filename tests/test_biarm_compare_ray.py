@@ -6,7 +6,6 @@ from __future__ import annotations
 import shutil
 
 import pytest
-import torch
 from test_biarm_resume import Killed, _kill_at, strip_timing, tiny
 
 from evodevo.errors import EvodevoError
@@ -14,13 +13,7 @@ from evodevo.neuromod import train
 from evodevo.neuromod.compare import run_dir_name, run_grid
 from evodevo.runs import RunDir
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _summaries(root, variants, seeds):

@@ -17,15 +17,7 @@ from evodevo.neuromod.lr_modulation import effective_lr, set_lr
 from evodevo.neuromod.modules import Neuromodulators, ema_update, novelty_decay
 from evodevo.neuromod.padding import check_fits, phi, phi_into
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """One torch thread, as the CLI and workers use (two threads on a loaded 2-core box
-    make these small networks many times slower); restored afterwards."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _sig(x: float) -> float:

@@ -17,13 +17,7 @@ from evodevo.neuromod.modules import Neuromodulators
 from evodevo.neuromod.replay import ReplayBuffer
 from evodevo.neuromod.variants import get_variant
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _trained_looking_net(gated: bool) -> ProgressiveNet:

@@ -21,14 +21,7 @@ from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.trainer import TIMING_KEYS
 from evodevo.runs import RunDir
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """One torch thread, as the CLI uses; restored afterwards."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 TINY: dict[str, Any] = {

@@ -18,15 +18,7 @@ from evodevo.neuromod.lr_modulation import effective_lr
 from evodevo.neuromod.trainer import TIMING_KEYS
 from evodevo.runs import RunDir
 
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """One torch thread, as the CLI and workers use (two threads on a loaded 2-core box
-    make these small networks many times slower); restored afterwards."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 TINY: dict[str, Any] = {

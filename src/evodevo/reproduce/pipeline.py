@@ -170,6 +170,9 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                     )
                 )
             if label in g.controllers:
+                # the neuromodulated GRN: one ablation per modulator (SPEC §5); else the nine
+                # ablations of SPEC §2.5, which apply to plain GRN genomes only
+                modulated = label == "neuromodulated"
                 late.append(
                     Step(
                         f"grn-ablate-{label}-s{seed}",
@@ -181,8 +184,9 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
                             str(g.ablation_episodes),
                             "--workers",
                             w,
+                            *(["--modulators"] if modulated else []),
                         ],
-                        [rdir / "ablations.csv"],
+                        [rdir / ("modulator_ablations.csv" if modulated else "ablations.csv")],
                     )
                 )
                 late.append(

@@ -285,6 +285,14 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
                 ab.read_text().strip(),
                 "",
             ]
+        mab = gdir / f"{c}_s{s0}" / "modulator_ablations.md"
+        if mab.is_file():
+            lines += [
+                f"### Modulator ablations (SPEC §5: each gamma set to 0), {c} seed {s0}",
+                "",
+                _drop_heading(mab.read_text()),
+                "",
+            ]
         figs = sorted((gdir / f"{c}_s{s0}" / "figures").glob("*.png"))
         if figs:
             lines += (
