@@ -17,3 +17,12 @@ def one_torch_thread() -> Iterator[None]:
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(before)
+
+
+try:  # property tests draw the same examples on every run: a CI failure reproduces locally
+    from hypothesis import settings
+
+    settings.register_profile("evodevo", derandomize=True, deadline=None)
+    settings.load_profile("evodevo")
+except ImportError:  # pragma: no cover - hypothesis is a dev dependency
+    pass
