@@ -25,7 +25,7 @@ from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.genome import GrnGenome
 from evodevo.runs import atomic_write_text, write_json
 from evodevo.seeding import np_rng
-from evodevo.stats import fisher_exact, rate
+from evodevo.stats import fisher_exact, holm, mcnemar_exact, rate
 
 __all__ = ["ABLATIONS", "ablate", "difference_interval", "run_ablations", "ABLATION_KEY"]
 
@@ -158,12 +158,14 @@ def run_ablations(
     rows: list[dict[str, Any]] = []
     with Evaluator(cfg, loaded.encoder, workers=workers) as ev:
         full = ev.evaluate([loaded.genome], eps)
-        k0 = int(full.success.sum())
-        rows.append(_row("intact", k0, n, k0, n))
+        s0 = full.success[0]
+        k0 = int(s0.sum())
+        rows.append(_row("intact", k0, n, k0, n, s0, s0))
         for i, name in enumerate(ABLATIONS):
             genome, acfg = ablate(loaded.genome, name, cfg, np_rng(cfg.seed, ABLATION_KEY, i))
             res = ev.evaluate([genome], eps, config=acfg)
-            rows.append(_row(name, int(res.success.sum()), n, k0, n))
+            rows.append(_row(name, int(res.success.sum()), n, k0, n, res.success[0], s0))
+    add_holm(rows)
     run = loaded.run
     run.write_csv("ablations.csv", rows)
     write_json(run / "ablations.json", {"objects": objects, "test_seed": test_seed, "rows": rows})
@@ -171,9 +173,20 @@ def run_ablations(
     return rows
 
 
-def _row(name: str, k: int, n: int, k0: int, n0: int) -> dict[str, Any]:
+def _row(
+    name: str,
+    k: int,
+    n: int,
+    k0: int,
+    n0: int,
+    succ: np.ndarray | None = None,
+    succ0: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """One ablation's row; with the per-episode successes (same episodes as intact) also the
+    paired exact McNemar p."""
     r = rate(k, n)
     lo, hi = difference_interval(k, n, k0, n0)
+    paired = {} if succ is None or succ0 is None else {"mcnemar_p": mcnemar_exact(succ, succ0)}
     return {
         "ablation": name,
         "successes": k,
@@ -185,26 +198,42 @@ def _row(name: str, k: int, n: int, k0: int, n0: int) -> dict[str, Any]:
         "change_ci_low": lo,
         "change_ci_high": hi,
         "fisher_p": fisher_exact(k, n, k0, n0),
+        **paired,
     }
+
+
+def add_holm(rows: list[dict[str, Any]]) -> None:
+    """``mcnemar_p_holm``: the McNemar p-values of the ablations (not of ``intact``) adjusted
+    together (Holm), since one table tests many ablations on the same episodes."""
+    idx = [i for i, r in enumerate(rows) if r["ablation"] != "intact" and "mcnemar_p" in r]
+    for i, p in zip(idx, holm([rows[i]["mcnemar_p"] for i in idx]), strict=True):
+        rows[i]["mcnemar_p_holm"] = p
 
 
 def ablations_markdown(rows: list[dict[str, Any]], objects: str, test_seed: int) -> str:
     """The ablation table in Markdown."""
     lines = [
         f"Ablations of the best genome: {rows[0]['episodes']} episodes on {objects} objects, "
-        f"test seed {test_seed}; change vs intact with Newcombe 95 % interval; Fisher exact p.",
+        f"test seed {test_seed}; change vs intact with Newcombe 95 % interval; Fisher exact p "
+        "(unpaired); exact McNemar p on the same episodes (paired), and Holm-adjusted over the "
+        "table's ablations.",
         "",
-        "| ablation | success [95 % CI] | change [95 % CI] | Fisher p |",
-        "|---|---|---|---|",
+        "| ablation | success [95 % CI] | change [95 % CI] | Fisher p | McNemar p | McNemar p, Holm |",
+        "|---|---|---|---|---|---|",
     ]
+
+    def _p(r: dict[str, Any], key: str) -> str:
+        return f"{r[key]:.3g}" if key in r else "—"
+
     for r in rows:
         lines.append(
             f"| {r['ablation']} | {100 * r['success_rate']:.1f} % "
             f"[{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}] | "
             f"{100 * r['change']:+.1f} [{100 * r['change_ci_low']:+.1f}, "
-            f"{100 * r['change_ci_high']:+.1f}] | {r['fisher_p']:.3g} |"
+            f"{100 * r['change_ci_high']:+.1f}] | {r['fisher_p']:.3g} | {_p(r, 'mcnemar_p')} "
+            f"| {_p(r, 'mcnemar_p_holm')} |"
         )
     return "\n".join(lines) + "\n"
 
 
-__all__ += ["ablations_markdown"]
+__all__ += ["ablations_markdown", "add_holm"]

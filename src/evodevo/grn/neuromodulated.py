@@ -389,7 +389,7 @@ def run_modulator_ablations(
     Writes ``modulator_ablations.{csv,json,md}`` into the run directory (change vs intact with a
     Newcombe 95 % interval, Fisher exact p; the layout of :mod:`evodevo.grn.ablations`).
     """
-    from evodevo.grn.ablations import _row, ablations_markdown
+    from evodevo.grn.ablations import _row, ablations_markdown, add_holm
     from evodevo.grn.evaluation import test_episodes
     from evodevo.grn.evaluator import Evaluator
     from evodevo.runs import atomic_write_text, write_json
@@ -412,9 +412,11 @@ def run_modulator_ablations(
     with Evaluator(cfg, loaded.encoder, workers=workers) as ev:
         res = ev.evaluate(variants, eps)
     k = res.success.sum(axis=1).astype(int)
-    rows = [_row("intact", int(k[0]), n, int(k[0]), n)]
+    s0 = res.success[0]
+    rows = [_row("intact", int(k[0]), n, int(k[0]), n, s0, s0)]
     for i, name in enumerate(MODULATOR_ABLATIONS, start=1):
-        rows.append(_row(name, int(k[i]), n, int(k[0]), n))
+        rows.append(_row(name, int(k[i]), n, int(k[0]), n, res.success[i], s0))
+    add_holm(rows)
     for i, row in enumerate(rows):
         row["mean_reward"] = float(res.reward[i].mean())
     rows[0]["gamma"] = [float(v) for v in genome.gamma]
