@@ -316,9 +316,11 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "",
         f"Each baseline ({', '.join(k.methods)}; seeds {k.seeds}) trains for the environment "
         "steps its seed's GRN evolution used, times the scale in the heading, and is tested on "
-        f"the same {g.test_episodes} test-object episodes as the GRN. Training time is wall "
-        f"clock with {cfg.workers} worker processes (the GRN and NEAT evaluate in parallel; "
-        "PPO and TD3 train in one process).",
+        f"the same {g.test_episodes} test-object episodes as the GRN. Training time is the wall "
+        "clock each run's summary.json records, on a machine that may have been shared; the GRN "
+        "and NEAT can evaluate genomes in parallel worker processes, PPO and TD3 train in one "
+        "process. NEAT stops at the end of the generation in which its budget runs out, so it "
+        "may use up to one generation more (its env steps are in the table).",
         "",
     ]
     wrote = False
