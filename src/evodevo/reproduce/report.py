@@ -232,11 +232,10 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         paired = []
         mcn: list[tuple[float, float]] = []
         for s, gs in grn_eps.items():
-            if ep is not None and len(ep) == len(gs):
-                d = (sum(gs) - sum(ep)) / len(gs)
-                pm = mcnemar_exact(gs, ep)
-                mcn.append((d, pm))
-                paired.append(f"s{s}: {100 * d:+.1f} (p = {pm:.2g})")
+            pair = _paired(gs, ep)
+            if pair is not None:
+                mcn.append(pair)
+                paired.append(f"s{s}: {_fmt_pair(pair)}")
         ctrl_rows.append(
             f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(paired) or '—'} |"
         )
@@ -389,16 +388,14 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
         if res is None or ep is None:
             continue
         seed = int(conf.get("seed", -1))
-        cells = []
-        for name in TRIVIAL_TITLES:
-            other = triv.get(name)
-            cells.append(_paired_cell(ep, other))
-            if name == "turn" and other is not None and len(other) == len(ep):
-                turn_cells.append(((sum(ep) - sum(other)) / len(ep), mcnemar_exact(ep, other)))
         gs = _successes(
             gdir / f"{g.controllers[0]}_s{seed}" / "eval_test_0.03_episodes.csv", "genome"
         )
-        cells.append(_paired_cell(ep, gs))
+        pairs = {name: _paired(ep, triv.get(name)) for name in TRIVIAL_TITLES}
+        cells = [_fmt_pair(pr) for pr in (*pairs.values(), _paired(ep, gs))]
+        turn = pairs.get("turn")
+        if turn is not None:
+            turn_cells.append(turn)
         rows.append(
             f"| {conf.get('method', d.name)} | {seed} | {summ.get('env_steps', '?')} | "
             f"{_pct(res)} | " + " | ".join(cells) + " |"
@@ -428,11 +425,17 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
     ]
 
 
-def _paired_cell(a: list[int], b: list[int] | None) -> str:
-    """``+d.d (p = x)`` for two per-episode success lists of the same episodes, else ``—``."""
-    if b is None or len(a) != len(b):
-        return "—"
-    return f"{100 * (sum(a) - sum(b)) / len(a):+.1f} (p = {mcnemar_exact(a, b):.2g})"
+def _paired(a: list[int] | None, b: list[int] | None) -> tuple[float, float] | None:
+    """(success of ``a`` − success of ``b``, exact McNemar p) for per-episode successes of the
+    same episodes; None if either is missing or they are not the same episodes."""
+    if a is None or b is None or len(a) != len(b):
+        return None
+    return (sum(a) - sum(b)) / len(a), mcnemar_exact(a, b)
+
+
+def _fmt_pair(pair: tuple[float, float] | None) -> str:
+    """``+d.d (p = x)`` in points, else ``—``."""
+    return "—" if pair is None else f"{100 * pair[0]:+.1f} (p = {pair[1]:.2g})"
 
 
 def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -> Path:
