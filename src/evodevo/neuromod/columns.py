@@ -38,6 +38,7 @@ import torch.nn.functional as F
 from scipy.special import expit
 from torch import nn
 
+from evodevo.neuromod.modules import logistic
 from evodevo.seeding import torch_gen
 
 __all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals"]
@@ -58,8 +59,7 @@ Prev = tuple[torch.Tensor, ...]
 
 def context_value(weights: Sequence[float], states: Sequence[float]) -> float:
     """Context gate ``sigmoid(sum_m w_m s_m)`` of Eq. 3.8 as a Python float (no autograd)."""
-    z = sum(w * x for w, x in zip(weights, states, strict=True))
-    return 1.0 / (1.0 + math.exp(-max(-60.0, min(60.0, z))))
+    return logistic(sum(w * x for w, x in zip(weights, states, strict=True)))
 
 
 def gated_laterals(

@@ -44,7 +44,7 @@ from torch import nn
 from evodevo.neuromod.config import MODULE_NAMES, ModuleConfig
 from evodevo.seeding import torch_gen
 
-__all__ = ["Neuromodulators", "LAYOUT", "ema_update", "novelty_decay"]
+__all__ = ["Neuromodulators", "LAYOUT", "ema_update", "logistic", "novelty_decay"]
 
 #: Internal order of the stacked networks: stage 1 (DA, NE), stage 2 (5HT, ACh).
 LAYOUT: tuple[str, ...] = ("DA", "NE", "5HT", "ACh")
@@ -62,7 +62,7 @@ def novelty_decay(n_task: float, decay: float) -> float:
     return n_task * decay
 
 
-def _sig(x: float) -> float:
+def logistic(x: float) -> float:
     """Scalar logistic function (Python floats are far cheaper than 1-element arrays)."""
     return 1.0 / (1.0 + math.exp(-max(-60.0, min(60.0, x))))
 
@@ -183,8 +183,8 @@ class Neuromodulators(nn.Module):
         np.maximum(z, 0.0, out=z)
         l_da, l_ne = np.dot(z, bo[0]).tolist()
         s_da, s_ne, s_5ht, s_ach = s.tolist()
-        s_da += tau[0] * (_sig(l_da + b2[0]) - s_da)
-        s_ne += tau[1] * (_sig(l_ne + b2[1]) - s_ne)
+        s_da += tau[0] * (logistic(l_da + b2[0]) - s_da)
+        s_ne += tau[1] * (logistic(l_ne + b2[1]) - s_ne)
         s[0] = s_da
         s[1] = s_ne
         # stage 2: 5HT (extra input s_DA just updated), ACh (extra input s_NE just updated)
@@ -193,8 +193,8 @@ class Neuromodulators(nn.Module):
         np.dot(x, a[1], out=z)
         np.maximum(z, 0.0, out=z)
         l_5ht, l_ach = np.dot(z, bo[1]).tolist()
-        s[2] = s_5ht + tau[2] * (_sig(l_5ht + b2[2]) - s_5ht)
-        s[3] = s_ach + tau[3] * (_sig(l_ach + b2[3]) - s_ach)
+        s[2] = s_5ht + tau[2] * (logistic(l_5ht + b2[2]) - s_5ht)
+        s[3] = s_ach + tau[3] * (logistic(l_ach + b2[3]) - s_ach)
         self.n_task *= self.cfg.novelty_decay
 
     # ----------------------------------------------------------------- learned mode
