@@ -34,6 +34,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -51,9 +52,7 @@ __all__ = [
 
 POLICIES = ("zero", "down", "random")
 #: ``make orig-venv`` creates this venv beside the checkout's ``.venv``.
-REPO_ORIG_PYTHON = str(
-    __import__("pathlib").Path(__file__).resolve().parents[1] / ".venv-orig/bin/python"
-)
+REPO_ORIG_PYTHON = str(Path(__file__).resolve().parents[1] / ".venv-orig/bin/python")
 DEFAULT_ORIG_PYTHON = "/work/origvenv/bin/python"
 
 
