@@ -14,7 +14,13 @@ from evodevo.config import doc, from_dict, load_config
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.parallel import WorkerPool
 from evodevo.runs import RunDir, read_json
-from evodevo.stats import bootstrap_ci, fisher_exact, summarise, wilson_interval
+from evodevo.stats import (
+    bootstrap_ci,
+    fisher_exact,
+    permutation_test,
+    summarise,
+    wilson_interval,
+)
 
 
 @dataclass
@@ -91,6 +97,17 @@ def test_bootstrap_and_summary():
 def test_fisher_exact_extreme():
     assert fisher_exact(10, 10, 0, 10) < 1e-4
     assert fisher_exact(5, 10, 5, 10) == pytest.approx(1.0)
+
+
+def test_paired_sign_flip_is_exact_for_few_pairs():
+    # 3 pairs, all differences positive: of the 8 sign patterns only the two with all signs
+    # equal reach |mean| = observed, so p = 2/8 (the smallest p three seeds can give).
+    assert permutation_test([3.0, 5.0, 4.0], [1.0, 1.0, 1.0], paired=True) == 0.25
+    # differences 2, 2, -1 (sum 3): sign patterns give sums ±5, ±3, ±1, ±1; four of the
+    # eight reach |sum| >= 3, p = 0.5
+    assert permutation_test([3.0, 3.0, 0.0], [1.0, 1.0, 1.0], paired=True) == 0.5
+    # identical samples: every pattern ties, p = 1
+    assert permutation_test([1.0, 2.0], [1.0, 2.0], paired=True) == 1.0
 
 
 def test_rundir_roundtrip(tmp_path):

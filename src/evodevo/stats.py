@@ -168,7 +168,9 @@ def permutation_test(
     """Two-sided permutation test p-value for a difference of means.
 
     With ``paired=True`` (same episode seeds on both sides) the signs of the per-pair
-    differences are flipped at random; otherwise the labels are shuffled.
+    differences are flipped: over all ``2**n`` sign patterns (the exact test) when that is at
+    most ``n_resamples``, else at random. With n pairs the exact test cannot go below
+    ``2 / 2**n`` (0.25 for 3 seeds). Otherwise (unpaired) the labels are shuffled at random.
     """
     x = np.asarray(a, dtype=float)
     y = np.asarray(b, dtype=float)
@@ -178,6 +180,10 @@ def permutation_test(
             raise ValueError("paired test needs equal-length samples")
         d = x - y
         obs = abs(d.mean())
+        if 2**d.size <= n_resamples:
+            patterns = np.arange(2**d.size)[:, None] >> np.arange(d.size) & 1
+            stats = np.abs(((1.0 - 2.0 * patterns) * d).mean(axis=1))
+            return float(np.mean(stats >= obs - 1e-12))
         signs = rng.choice([-1.0, 1.0], size=(n_resamples, d.size))
         stats = np.abs((signs * d).mean(axis=1))
     else:
