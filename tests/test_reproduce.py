@@ -274,3 +274,15 @@ def test_kuka_runs_are_paired_with_trivial_policies_and_the_grn(tmp_path):
         "Against the constant turn, 0 of 1 runs are significantly better and 1 significantly worse"
         in "\n".join(lines)
     )
+
+
+def test_coverage_lists_what_a_budget_leaves_out():
+    from evodevo.reproduce.report import coverage
+
+    assert coverage(preset("thesis")) == []
+    quick = "\n".join(coverage(preset("quick")))
+    assert "- `biarm.seeds`: [0] (full protocol [0, 1, 2, 3, 4]; missing [1, 2, 3, 4])" in quick
+    assert "- `kuka.budget_scales`: [1.0] (full protocol [1.0, 5.0]; missing [5.0])" in quick
+    assert "- `grn.population`: 4 (full protocol 12)" in quick
+    part = from_dict(ReproduceConfig, {"name": "part", "biarm": {"enabled": False}})
+    assert coverage(part)[4:-1] == ["- `biarm`: not run (the full protocol runs it)"]

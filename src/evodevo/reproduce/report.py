@@ -19,7 +19,7 @@ from typing import Any
 from evodevo.cli.common import parse_seeds
 from evodevo.neuromod.compare import collect
 from evodevo.reproduce.biarm_differences import biarm_differences
-from evodevo.reproduce.budget import ReproduceConfig
+from evodevo.reproduce.budget import ReproduceConfig, preset
 from evodevo.runs import atomic_write_text, machine_info
 from evodevo.stats import fisher_exact, mcnemar_exact, rate
 
@@ -28,6 +28,7 @@ __all__ = [
     "grn_section",
     "biarm_section",
     "kuka_paired",
+    "coverage",
     "markdown_to_html",
     "THESIS_GRN",
 ]
@@ -425,6 +426,7 @@ def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -
         "Logs of every step are in `logs/`, the resolved budget in `config.json`.",
         "",
     ]
+    lines += coverage(cfg)
     if cfg.biarm.enabled:
         lines += biarm_section(out, cfg)
     if cfg.grn.enabled:
@@ -436,6 +438,56 @@ def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -
     atomic_write_text(path, md)
     atomic_write_text(out / "report.html", markdown_to_html(md, out))
     return path
+
+
+def coverage(cfg: ReproduceConfig) -> list[str]:
+    """What this budget leaves out of the full protocol (``--budget thesis``), field by field.
+
+    Empty for the thesis budget itself; otherwise a list a reader can hold every table against
+    (a part turned off, fewer seeds, variants or methods, smaller episode counts).
+    """
+    full = preset("thesis")
+    if cfg == full:
+        return []
+    rows = []
+    for part in ("biarm", "grn", "kuka"):
+        ours, theirs = getattr(cfg, part), getattr(full, part)
+        if not ours.enabled:
+            rows.append(f"- `{part}`: not run (the full protocol runs it)")
+            continue
+        for name in theirs.__dataclass_fields__:
+            a, b = getattr(ours, name), getattr(theirs, name)
+            if a == b:
+                continue
+            if name == "seeds" or name == "control_seeds":
+                a, b = parse_seeds(a), parse_seeds(b)
+                missing = [x for x in b if x not in a]
+                if not missing:
+                    continue
+                rows.append(f"- `{part}.{name}`: {a} (full protocol {b}; missing {missing})")
+            elif isinstance(b, list):
+                missing = [x for x in b if x not in a]
+                extra = [x for x in a if x not in b]
+                if missing or extra:
+                    rows.append(
+                        f"- `{part}.{name}`: {a} (full protocol {b}"
+                        + (f"; missing {missing}" if missing else "")
+                        + (f"; not in it {extra}" if extra else "")
+                        + ")"
+                    )
+            else:
+                rows.append(f"- `{part}.{name}`: {a} (full protocol {b})")
+    if not rows:
+        return []
+    return [
+        "## Coverage against the full protocol (`--budget thesis`)",
+        "",
+        f"This report's budget `{cfg.name}` differs from the full protocol here; every table "
+        "below holds only what was run:",
+        "",
+        *rows,
+        "",
+    ]
 
 
 _IMG = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
