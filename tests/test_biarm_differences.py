@@ -63,6 +63,7 @@ def test_lines_hold_the_measured_comparisons():
     assert "in the thesis' Table 3.4 2 of 2 are" in text
     assert "CartPole-v1 no-da +10.0 (p = 0.25)" in text
     assert "PNN retention** is exactly 100 % on all 6 (task, seed) pairs" in text
+    assert "BIARM retention" not in text
     assert "quick" not in text and "× the thesis' episodes" not in text
 
 
@@ -75,9 +76,12 @@ def test_reduced_budget_and_forgetting_lines():
         ft[s] = summ
     runs["finetune"] = ft
     runs["pnn"][1]["tasks"][0]["retention"] = 0.9
+    runs["biarm"][2]["tasks"][0]["retention"] = 0.947
     text = "\n".join(biarm_differences(runs, 0.1))
     assert "0.1 × the thesis' episodes" in text
     assert "CartPole-v1 400.0 → 200.0 (50 %)" in text
     # a fine-tuning evaluation episode reached MountainCar's goal, so the task is not "unsolved"
     assert "reached the goal" not in text
     assert "PNN retention** is below 100 % on 1 of 6" in text
+    assert "BIARM retention** differs from 100 % where" in text
+    assert "frozen: CartPole-v1 seed 2 94.7 %." in text

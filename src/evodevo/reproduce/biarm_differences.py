@@ -203,6 +203,19 @@ def _forgetting_lines(runs: Runs, envs: list[str]) -> list[str]:
                 f"{len(kept)} (task, seed) pairs, which frozen columns should not allow "
                 "(SPEC §1.7): a non-deterministic task or a defect; check the runs."
             )
+    moved = [
+        f"{t['env_id']} seed {seed} {100 * float(t['retention']):.1f} %"
+        for seed, s in sorted(runs.get("biarm", {}).items())
+        for t in s["tasks"]
+        if t.get("retention") is not None and float(t["retention"]) != 1.0
+    ]
+    if moved:
+        out.append(
+            "- **BIARM retention** differs from 100 % where a frozen column's return moved after "
+            "it was frozen: " + "; ".join(moved) + ". Its laterals are gated by the *current* "
+            "module states (Eq. 3.8), so a frozen BIARM column is not a fixed function; its "
+            "weights do not change."
+        )
     for v in FORGETTING:
         if v not in runs:
             continue
