@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from evodevo.neuromod.compare import ABLATIONS
 from evodevo.neuromod.evaluation import retention
 from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4
 from evodevo.stats import MeanSummary, permutation_test, summarise
@@ -23,7 +24,6 @@ from evodevo.stats import MeanSummary, permutation_test, summarise
 __all__ = ["biarm_differences"]
 
 Runs = Mapping[str, Mapping[int, Mapping[str, Any]]]
-ABLATIONS = ("no-da", "no-5ht", "no-ne", "no-ach")
 FORGETTING = ("finetune", "ewc")
 
 
