@@ -26,3 +26,13 @@ try:  # property tests draw the same examples on every run: a CI failure reprodu
     settings.load_profile("evodevo")
 except ImportError:  # pragma: no cover - hypothesis is a dev dependency
     pass
+
+
+@pytest.fixture(scope="session", autouse=True)
+def fused_kernel_built() -> None:
+    """Build (or load) the fused BIARM lateral kernel once, before any test: on a fresh machine
+    the first build takes ~30-60 s and prints a notice, which must not land in the stderr of a
+    CLI test that checks its one error line (those subprocesses then load the cached build)."""
+    from evodevo.neuromod import kernels
+
+    kernels.load()

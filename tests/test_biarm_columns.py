@@ -72,7 +72,7 @@ def test_gated_shapes_and_gradient_only_into_current_column():
     states = torch.full((4,), 0.5)
     prev = net.features(x, 2, states)
     assert prev[0].shape == (4, 6, 16)  # blocks h1_1, h1_2, h2_1, h2_2 of the frozen columns
-    q = cur(x, prev, cur.context(states))
+    q = cur(x, prev, states)
     q.sum().backward()
     for col in list(net.columns)[:-1]:
         for p in col.parameters():
@@ -91,10 +91,9 @@ def test_context_gate_scales_laterals():
         col.ctx_w.copy_(torch.tensor([5.0, 5.0, 5.0, 5.0]))
         # gate ~ sigmoid(0)=0.5 vs sigmoid(20)=1: laterals differ, so Q differs
         assert not torch.allclose(net.q(x, 2, s_lo), net.q(x, 2, s_hi))
-        # a per-sample gate of (B, 1) equal to the scalar gives the same Q
+        # per-sample states (B, 4) equal to the scalar states give the same Q
         prev = net.features(x, 2, s_hi)
-        g = col.context(s_hi)
-        torch.testing.assert_close(col(x, prev, g), col(x, prev, g.expand(3, 1)))
+        torch.testing.assert_close(col(x, prev, s_hi), col(x, prev, s_hi.expand(3, 4)))
 
 
 def test_column_init_xavier_zero_bias_and_seeded():

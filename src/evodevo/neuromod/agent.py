@@ -23,6 +23,7 @@ import torch
 from evodevo.neuromod.columns import Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
+from evodevo.neuromod.flat_params import FlatParams, flatten, flatten_adam_state
 from evodevo.neuromod.lr_modulation import set_lr
 from evodevo.neuromod.modules import Neuromodulators
 from evodevo.neuromod.replay import Batch, ReplayBuffer
@@ -71,6 +72,7 @@ class BiarmAgent:
                 seed=seed,
                 context_weights=ctx_w,
                 learn_context=cfg.modules.learn_context_weights,
+                lateral_kernel=cfg.network.lateral_kernel,
             )
         else:
             raise ValueError(
@@ -87,6 +89,7 @@ class BiarmAgent:
         self.target: Column | HeadView | None = None
         self.optimizer: torch.optim.Optimizer | None = None
         self.params: list[torch.nn.Parameter] = []
+        self.flat: FlatParams | None = None
         self.grad_steps = 0
 
     # ------------------------------------------------------------------ tasks
@@ -98,7 +101,9 @@ class BiarmAgent:
         self.params = [p for p in self.net.current.parameters() if p.requires_grad]
         if self.learned and self.col > 0 and self.modules is not None:
             self.params += [p for p in self.modules.parameters() if p.requires_grad]
-        self.optimizer = torch.optim.Adam(self.params, lr=self.cfg.dqn.lr, fused=True)
+        # one flat buffer: zeroing, clipping and Adam are one operation each (flat_params)
+        self.flat = flatten(self.params)
+        self.optimizer = torch.optim.Adam([self.flat.param], lr=self.cfg.dqn.lr, fused=True)
         self.grad_steps = 0
         if self.modules is not None:
             self.modules.start_task()
@@ -167,19 +172,13 @@ class BiarmAgent:
         if col > 0 and isinstance(self.net, ProgressiveNet):
             assert isinstance(column, Column) and isinstance(target, Column)
             prev = self.net.features(torch.cat((obs, nobs)), col, st)
-            ctx_on: torch.Tensor | None = None
-            ctx_nx: float | None = None
-            if self.net.gated:
-                assert st is not None
-                if self.learned:
-                    assert self.modules is not None
-                    ctx_on = column.context(self.modules.batch_targets(obs, rew, n_task))
-                else:
-                    ctx_on = column.context(st)
-                ctx_nx = target.context_value(st.tolist())  # no autograd: a float
-            q_all = column(obs, column.rows(prev, 0, bsz), ctx_on)
+            st_on = st
+            if self.learned:  # per-sample gate from the module networks' batch outputs
+                assert self.modules is not None
+                st_on = self.modules.batch_targets(obs, rew, n_task)
+            q_all = column(obs, column.rows(prev, 0, bsz), st_on)
             with torch.no_grad():
-                q_next = target(nobs, column.rows(prev, bsz, 2 * bsz), ctx_nx).max(1).values
+                q_next = target(nobs, column.rows(prev, bsz, 2 * bsz), st).max(1).values
         else:
             q_all = column(obs)
             with torch.no_grad():
@@ -191,13 +190,13 @@ class BiarmAgent:
         if self.ewc is not None:
             loss = loss + self.ewc.penalty()
         opt = self.optimizer
-        for p in self.params:
-            p.grad = None
-        loss.backward()
-        grads = [p.grad for p in self.params if p.grad is not None]
-        # gradient-norm clip (what clip_grad_norm_ does, without its per-call bookkeeping)
-        total = torch.linalg.vector_norm(torch.stack(torch._foreach_norm(grads)))
-        torch._foreach_mul_(grads, torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
+        flat = self.flat
+        assert flat is not None
+        flat.zero_grad()
+        loss.backward()  # accumulates into flat.grad (every parameter's .grad is a view of it)
+        # gradient-norm clip (what clip_grad_norm_ does), on the one flat gradient
+        total = torch.linalg.vector_norm(flat.grad)
+        flat.grad.mul_(torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
         if self.modules is not None:
             set_lr(opt, self.lr())
         opt.step()
@@ -267,5 +266,6 @@ class BiarmAgent:
             self.ewc.load_state_dict(data["ewc"])
         assert self.target is not None and self.optimizer is not None
         self.target.load_state_dict(data["target"])
-        self.optimizer.load_state_dict(data["optimizer"])
+        assert self.flat is not None
+        self.optimizer.load_state_dict(flatten_adam_state(data["optimizer"], self.flat.sizes))
         self.grad_steps = int(data["grad_steps"])

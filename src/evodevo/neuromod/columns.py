@@ -31,6 +31,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import torch
@@ -38,6 +39,8 @@ import torch.nn.functional as F
 from scipy.special import expit
 from torch import nn
 
+from evodevo.neuromod.kernels import load as load_kernel
+from evodevo.neuromod.kernels import resolve as resolve_kernel
 from evodevo.neuromod.modules import logistic
 from evodevo.seeding import torch_gen
 
@@ -49,6 +52,13 @@ def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) 
     bound = (6.0 / (fan[0] + fan[1])) ** 0.5
     t = torch.empty(shape).uniform_(-bound, bound, generator=gen)
     return nn.Parameter(t)
+
+
+def _fused() -> Any:
+    """The compiled C++ extension (only called once :func:`resolve_kernel` returned "cpp")."""
+    mod = load_kernel()
+    assert mod is not None
+    return mod
 
 
 # ---------------------------------------------------------------------------- gated laterals
@@ -112,6 +122,7 @@ class Column(nn.Module):
         context_weights: initial w_m of Eq. 3.8, in the modules' internal layout.
         learn_context: train w_m with the column.
         gen: generator for the Xavier initialisation.
+        kernel: ``"cpp"`` (fused C++ laterals) or ``"torch"`` (:mod:`evodevo.neuromod.kernels`).
     """
 
     def __init__(
@@ -125,6 +136,7 @@ class Column(nn.Module):
         context_weights: Sequence[float],
         learn_context: bool,
         gen: torch.Generator,
+        kernel: str = "torch",
     ) -> None:
         super().__init__()
         self.n_prev = k = n_prev
@@ -132,6 +144,7 @@ class Column(nn.Module):
         self.n_actions = a = n_actions
         self.gated = gated
         self.r = r = adapter_dim
+        self.kernel = kernel
         self.w1 = _xavier((obs_dim, h), (obs_dim, h), gen)
         self.b1 = nn.Parameter(torch.zeros(h))
         self.w2 = _xavier((h, h), (h, h), gen)
@@ -178,25 +191,38 @@ class Column(nn.Module):
         self,
         x: torch.Tensor,
         prev: Prev | None = None,
-        ctx: torch.Tensor | float | None = None,
+        states: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Q-values (B, n_actions) of this column.
 
         ``prev`` holds the earlier columns' activations as :meth:`ProgressiveNet.features`
-        returns them (rows of this batch); ``ctx`` is the context gate (BIARM): a tensor from
-        :meth:`context` (or per sample), or a float from :meth:`context_value` without
-        autograd.
+        returns them (rows of this batch); ``states`` (BIARM) are the four module states the
+        context gate reads: (4,) for one gate, or (B, 4) for one per sample (learned mode).
+        With ``kernel == "cpp"`` the gate and both laterals are one fused C++ operation
+        (:mod:`evodevo.neuromod.kernels`), else the PyTorch operations of
+        :func:`gated_laterals` (a float gate where no gradient is needed).
         """
         h1 = torch.relu(torch.addmm(self.b1, x, self.w1))
         if not self.n_prev:
             return torch.addmm(self.bq, torch.relu(torch.addmm(self.b2, h1, self.w2)), self.wq)
         assert prev is not None
         if self.gated:
-            assert ctx is not None
-            # both laterals' adapters (from h1 and from h2 of the earlier columns) in one op
-            t2, tq = gated_laterals(
-                prev[0], self.ad_w, self.ad_b, ctx, ((self.u2, self.b2), (self.uq, self.bq))
-            )
+            assert states is not None
+            if self.kernel == "cpp":
+                t2, tq = _fused().gated_lateral(
+                    prev[0], self.ad_w, self.ad_b, states, self.ctx_w,
+                    self.u2, self.b2, self.uq, self.bq,
+                )  # fmt: skip
+            else:
+                gate: torch.Tensor | float
+                if states.dim() == 1 and not torch.is_grad_enabled():
+                    gate = self.context_value(states.tolist())
+                else:
+                    gate = self.context(states)
+                # both laterals' adapters (from h1 and from h2 of the earlier columns) in one op
+                t2, tq = gated_laterals(
+                    prev[0], self.ad_w, self.ad_b, gate, ((self.u2, self.b2), (self.uq, self.bq))
+                )
         else:  # PNN: U h of all earlier columns, one product per layer, bias folded in
             t2 = torch.addmm(self.b2, prev[0], self.u2)
             tq = torch.addmm(self.bq, prev[1], self.uq)
@@ -215,6 +241,9 @@ class ProgressiveNet(nn.Module):
         seed: run seed; column i is initialised from ``derive(seed, 3, i)``.
         context_weights: initial Eq. 3.8 weights in the modules' internal layout.
         learn_context: train the Eq. 3.8 weights.
+        lateral_kernel: ``network.lateral_kernel`` (``auto``, ``cpp``, ``torch``), resolved by
+            :func:`evodevo.neuromod.kernels.resolve` for gated stacks; :attr:`kernel` is the
+            result (``"torch"`` for PNN, whose laterals are one product per layer already).
     """
 
     def __init__(
@@ -226,8 +255,11 @@ class ProgressiveNet(nn.Module):
         seed: int,
         context_weights: Sequence[float] = (0.3, 0.3, 0.2, 0.2),
         learn_context: bool = True,
+        lateral_kernel: str = "auto",
     ) -> None:
         super().__init__()
+        self.lateral_kernel = lateral_kernel
+        self.kernel = resolve_kernel(lateral_kernel) if gated else "torch"
         self.obs_dim = obs_dim
         self.hidden = hidden
         self.gated = gated
@@ -272,6 +304,7 @@ class ProgressiveNet(nn.Module):
             context_weights=self.context_weights,
             learn_context=self.learn_context,
             gen=torch_gen(self.seed, 3, self.n_columns),
+            kernel=self.kernel,
         )
         self.columns.append(col)
         return col
@@ -343,29 +376,18 @@ class ProgressiveNet(nn.Module):
                 parts.append(torch.relu(torch.addmm(t2, h1[:, j * h : (j + 1) * h], col.w2)))
             return h1, parts[1] if upto == 1 else torch.cat(parts[1:], 1)
 
-    def q(
-        self,
-        x: torch.Tensor,
-        col: int,
-        states: torch.Tensor | None,
-        ctx: torch.Tensor | None = None,
-    ) -> torch.Tensor:
+    def q(self, x: torch.Tensor, col: int, states: torch.Tensor | None) -> torch.Tensor:
         """Q-values of column ``col`` (B, n_actions) for padded observations ``x``.
 
-        ``states`` are the four scalar states (internal layout) for the context gates;
-        ``ctx`` overrides column ``col``'s own gate (learned mode: per-sample gate).
+        ``states`` are the four scalar states (internal layout) for the context gates, (4,);
+        column ``col``'s own gate may also read per-sample states (B, 4) (learned mode).
         """
         column: Column = self.columns[col]  # type: ignore[assignment]
         if col == 0:
             return column(x)
-        prev = self.features(x, col, states)
-        gate: torch.Tensor | float | None = ctx
-        if self.gated and ctx is None:
-            assert states is not None
-            # without autograd the gate is a float (one kernel fewer per lateral)
-            grad = torch.is_grad_enabled()
-            gate = column.context(states) if grad else column.context_value(states.tolist())
-        return column(x, prev, gate)
+        frozen_states = states if states is None or states.dim() == 1 else None
+        prev = self.features(x, col, frozen_states)
+        return column(x, prev, states)
 
     def _np_views(self, col: int) -> dict[str, np.ndarray]:
         """NumPy views (shared memory) of column ``col``'s parameters and the frozen caches."""
@@ -461,6 +483,7 @@ class ProgressiveNet(nn.Module):
             "seed": self.seed,
             "context_weights": self.context_weights,
             "learn_context": self.learn_context,
+            "lateral_kernel": self.lateral_kernel,
             "actions": [c.n_actions for c in self.columns],  # type: ignore[union-attr]
         }
 

@@ -112,6 +112,11 @@ class NetworkConfig:
     d_max: int | None = doc(
         None, "input size of phi (Eq. 3.10); null = largest obs of the sequence"
     )
+    lateral_kernel: str = doc(
+        "auto",
+        "BIARM gated laterals: cpp (fused C++ kernel, built once), torch (PyTorch ops), "
+        "auto (cpp when it builds, else torch)",
+    )
 
     def validate(self) -> None:
         if self.hidden < 1:
@@ -120,6 +125,10 @@ class NetworkConfig:
             raise ConfigError(f"network.adapter_dim={self.adapter_dim} must be at least 1")
         if self.d_max is not None and self.d_max < 1:
             raise ConfigError(f"network.d_max={self.d_max} must be at least 1 or null")
+        if self.lateral_kernel not in ("auto", "cpp", "torch"):
+            raise ConfigError(
+                f"network.lateral_kernel={self.lateral_kernel!r} is not one of auto, cpp, torch"
+            )
 
 
 @dataclass

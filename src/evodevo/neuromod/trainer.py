@@ -290,6 +290,11 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
     saved = run.read_config()
     mine = {"variant": variant.name, "seed": seed, **to_dict(cfg)}
     theirs = saved.get("config", {})
+    # network.lateral_kernel picks an implementation, not the experiment: runs may resume
+    # across it (and configs written before it existed lack it)
+    for part in (theirs, mine):
+        if isinstance(part.get("network"), dict):
+            part["network"] = {k: v for k, v in part["network"].items() if k != "lateral_kernel"}
     for key in ("variant", "seed", "tasks", "episodes_scale", "dqn", "network", "modules"):
         if theirs.get(key) != mine.get(key):
             raise CheckpointError(
@@ -467,6 +472,7 @@ def train(
         "seed": seed,
         "module_learning": cfg.modules.learning,
         "adapter_dim": cfg.network.adapter_dim,
+        "lateral_kernel": getattr(agent.net, "kernel", None) if var.gated else None,
         "d_max": d_max,
         "eval_seeds": seeds,
         "tasks": tasks,

@@ -1,0 +1,100 @@
+"""The fused C++ kernel of BIARM's gated laterals (SPEC §1.2-1.3), built on first use.
+
+``csrc/gated_lateral.cpp`` computes Eq. 3.8-3.9 for a column's laterals *and* the context gate
+in one call, forward and backward (a C++ ``torch.autograd.Function``): the matrix products are
+ATen calls, the element-wise steps one loop each. At the default sizes BIARM's FLOPs are
+within 5 % of PNN's, so what made it slower than PNN was the dispatch cost of the ~12 small
+Python-level operations (and autograd nodes) this one call replaces.
+
+:func:`load` compiles the extension with :func:`torch.utils.cpp_extension.load` (g++ and the
+Python headers are needed; about 30-60 s once per machine, cached under
+``$TORCH_EXTENSIONS_DIR`` or ``~/.cache/torch_extensions``; concurrent builds from worker
+processes wait on torch's lock). :func:`resolve` turns the ``network.lateral_kernel`` setting
+into the kernel a run uses:
+
+* ``auto`` (default): the C++ kernel when it builds, else the PyTorch operations of
+  :func:`evodevo.neuromod.columns.gated_laterals` (one warning line);
+* ``cpp``: the C++ kernel, or a clear error when it cannot be built;
+* ``torch``: always the PyTorch operations.
+
+Both compute the same equations; they differ in the last bits of float rounding (the C++ code
+evaluates the context gate as ``1 / (1 + exp(-x))`` and sums in another order), so a run's
+numbers are reproducible for the kernel it used, which ``summary.json`` records
+(``lateral_kernel``).
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import warnings
+from pathlib import Path
+from types import ModuleType
+
+from evodevo.errors import ConfigError
+
+__all__ = ["KERNELS", "load", "resolve", "SOURCE"]
+
+#: Accepted values of ``network.lateral_kernel``.
+KERNELS = ("auto", "cpp", "torch")
+SOURCE = Path(__file__).with_name("csrc") / "gated_lateral.cpp"
+
+_module: ModuleType | None = None
+_error: str | None = None
+
+
+def load() -> ModuleType | None:
+    """The compiled extension, building it on first call; None (and the reason kept for
+    :func:`resolve`) when it cannot be built."""
+    global _module, _error
+    if _module is not None or _error is not None:
+        return _module
+    # say so only when it takes long, i.e. when it compiles (loading a cached build is ~1 s)
+    notice = threading.Timer(
+        3.0,
+        lambda: print(
+            "evodevo: building the fused BIARM lateral kernel (once per machine, ~30-60 s)",
+            file=sys.stderr,
+            flush=True,
+        ),
+    )
+    notice.daemon = True
+    notice.start()
+    try:
+        from torch.utils.cpp_extension import load as build
+
+        _module = build(
+            name="evodevo_gated_lateral",
+            sources=[str(SOURCE)],
+            extra_cflags=["-O3"],
+            verbose=False,
+        )
+    except Exception as exc:  # a missing compiler or header surfaces as many exception types
+        lines = str(exc).strip().splitlines()
+        _error = f"{type(exc).__name__}: {lines[-1] if lines else ''}"
+    finally:
+        notice.cancel()
+    return _module
+
+
+def resolve(setting: str) -> str:
+    """``network.lateral_kernel`` -> the kernel to use, ``"cpp"`` or ``"torch"``."""
+    if setting not in KERNELS:
+        raise ConfigError(f"network.lateral_kernel={setting!r} is not one of {', '.join(KERNELS)}")
+    if setting == "torch":
+        return "torch"
+    if load() is not None:
+        return "cpp"
+    if setting == "cpp":
+        raise ConfigError(
+            f"network.lateral_kernel='cpp' but the C++ kernel {SOURCE.name} did not build "
+            f"({_error}); install g++ and the Python headers, or set network.lateral_kernel "
+            "to auto or torch"
+        )
+    warnings.warn(
+        f"the fused BIARM lateral kernel did not build ({_error}); using the PyTorch "
+        "operations (same equations, slower)",
+        RuntimeWarning,
+        stacklevel=2,
+    )
+    return "torch"

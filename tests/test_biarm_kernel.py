@@ -1,0 +1,191 @@
+"""The fused C++ gated-lateral kernel against the PyTorch operations, and the flat parameter
+buffer against per-tensor Adam (SPEC §1.2-1.3, §1.6)."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+import torch
+
+from evodevo.config import from_dict
+from evodevo.errors import ConfigError
+from evodevo.neuromod import kernels
+from evodevo.neuromod.columns import ProgressiveNet, gated_laterals
+from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.flat_params import flatten, flatten_adam_state
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
+
+
+@pytest.fixture(scope="module")
+def ext():
+    mod = kernels.load()
+    if mod is None:
+        if shutil.which("g++"):
+            pytest.fail(f"g++ is installed but the kernel did not build: {kernels._error}")
+        pytest.skip("no C++ compiler: the fused kernel cannot be built here")
+    return mod
+
+
+def _inputs(gen: torch.Generator, k: int = 3, bsz: int = 5, h: int = 8, r: int = 3, a: int = 4):
+    def mk(*shape: int) -> torch.Tensor:
+        return torch.randn(*shape, generator=gen).requires_grad_(True)
+
+    # the frozen features as ProgressiveNet.features lays them out: rows of a 2B batch
+    feats = torch.randn(2 * k, 2 * bsz, h, generator=gen)[:, :bsz]
+    return feats, mk(2 * k, h, 2 * r), mk(2 * k, 1, 2 * r), mk(k * r, h), mk(h), mk(k * r, a), mk(a)
+
+
+@pytest.mark.parametrize("per_sample", [False, True])
+def test_kernel_matches_torch_ops_forward_and_gradients(ext, per_sample):
+    gen = torch.Generator().manual_seed(0)
+    feats, w, b, u2, b2, uq, bq = _inputs(gen)
+    bsz = feats.shape[1]
+    states = torch.rand(*((bsz, 4) if per_sample else (4,)), generator=gen).requires_grad_(True)
+    cw = torch.randn(4, generator=gen).requires_grad_(True)
+    leaves = [w, b, states, cw, u2, b2, uq, bq]
+
+    def loss(t2: torch.Tensor, tq: torch.Tensor) -> torch.Tensor:
+        return t2.sin().sum() + (tq**2).sum()  # not linear, so every gradient term matters
+
+    gate = torch.sigmoid(states @ cw)
+    gate = gate.unsqueeze(1) if per_sample else gate
+    want = gated_laterals(feats, w, b, gate, ((u2, b2), (uq, bq)))
+    got = ext.gated_lateral(feats, w, b, states, cw, u2, b2, uq, bq)
+    for g, wv in zip(got, want, strict=True):
+        torch.testing.assert_close(g, wv, rtol=1e-5, atol=1e-5)
+    g_want = torch.autograd.grad(loss(*want), leaves)
+    g_got = torch.autograd.grad(loss(*got), leaves)
+    for name, g, wv in zip(
+        ["w", "b", "states", "ctx_w", "u2", "b2", "uq", "bq"], g_got, g_want, strict=True
+    ):
+        torch.testing.assert_close(g, wv, rtol=1e-4, atol=1e-5, msg=name)
+
+
+def test_kernel_skips_gradients_nobody_asks_for(ext):
+    gen = torch.Generator().manual_seed(1)
+    feats, w, b, u2, b2, uq, bq = _inputs(gen)
+    states, cw = torch.rand(4, generator=gen), torch.randn(4, generator=gen)  # no grad
+    t2, tq = ext.gated_lateral(feats, w, b, states, cw, u2, b2, uq, bq)
+    grads = torch.autograd.grad(t2.sum() + tq.sum(), [w, u2])
+    assert all(g.abs().sum() > 0 for g in grads)
+    with torch.no_grad():  # the target network's path: no graph at all
+        t2n, _ = ext.gated_lateral(feats, w, b, states, cw, u2, b2, uq, bq)
+    assert not t2n.requires_grad
+    torch.testing.assert_close(t2n, t2.detach())
+
+
+def test_kernel_rejects_wrong_shapes(ext):
+    gen = torch.Generator().manual_seed(2)
+    feats, w, b, u2, b2, uq, bq = _inputs(gen)
+    with pytest.raises(RuntimeError, match=r"states \(4,\) or \(B, 4\)"):
+        ext.gated_lateral(feats, w, b, torch.zeros(3), torch.zeros(4), u2, b2, uq, bq)
+    with pytest.raises(RuntimeError, match="even n"):
+        ext.gated_lateral(feats[:3], w[:3], b[:3], torch.zeros(4), torch.zeros(4), u2, b2, uq, bq)
+
+
+def _stack(kernel: str) -> ProgressiveNet:
+    net = ProgressiveNet(obs_dim=5, hidden=16, gated=True, adapter_dim=4, seed=0,
+                         lateral_kernel=kernel)  # fmt: skip
+    for n in (2, 3, 4):
+        net.add_column(n)
+    return net
+
+
+def test_column_with_cpp_kernel_equals_torch_kernel(ext):
+    cpp, tch = _stack("cpp"), _stack("torch")
+    assert cpp.kernel == "cpp" and tch.kernel == "torch"
+    x = torch.randn(6, 5, generator=torch.Generator().manual_seed(3))
+    states = torch.tensor([0.2, 0.9, 0.4, 0.6])
+    qs = []
+    for net in (cpp, tch):
+        prev = net.features(x, 2, states)
+        q = net.current(x, prev, states)
+        q.square().sum().backward()
+        qs.append(q.detach())
+    torch.testing.assert_close(qs[0], qs[1], rtol=1e-5, atol=1e-5)
+    for (name, pc), pt in zip(
+        cpp.current.named_parameters(), tch.current.parameters(), strict=True
+    ):
+        torch.testing.assert_close(pc.grad, pt.grad, rtol=1e-4, atol=1e-6, msg=name)
+    # the greedy NumPy path agrees with the kernel
+    got = cpp.q_np(x[0].numpy(), 2, states.tolist())
+    torch.testing.assert_close(torch.from_numpy(got), qs[0][0], rtol=1e-5, atol=1e-5)
+
+
+def test_kernel_setting_is_validated():
+    with pytest.raises(ConfigError, match="network.lateral_kernel='fast'"):
+        kernels.resolve("fast")
+    with pytest.raises(ConfigError, match="lateral_kernel='fast' is not one of auto, cpp, torch"):
+        from_dict(BiarmConfig, {"network": {"lateral_kernel": "fast"}})
+    assert kernels.resolve("torch") == "torch"
+    # PNN laterals are one product per layer already: never the gated kernel
+    assert ProgressiveNet(obs_dim=3, hidden=4, gated=False, adapter_dim=2, seed=0).kernel == "torch"
+
+
+# ------------------------------------------------------------------------- flat parameters
+def _params(seed: int) -> list[torch.nn.Parameter]:
+    gen = torch.Generator().manual_seed(seed)
+    return [torch.nn.Parameter(torch.randn(*s, generator=gen)) for s in ((3, 4), (4,), (2, 1, 3))]
+
+
+def _loss(ps: list[torch.nn.Parameter], t: int) -> torch.Tensor:
+    return sum(((p - 0.1 * t) ** 2 * (i + 1)).sum() for i, p in enumerate(ps))  # type: ignore[return-value]
+
+
+def test_flat_buffer_keeps_values_and_collects_gradients():
+    ps = _params(0)
+    before = [p.detach().clone() for p in ps]
+    flat = flatten(ps)
+    assert flat.param.numel() == sum(p.numel() for p in ps) == sum(flat.sizes)
+    for p, b in zip(ps, before, strict=True):
+        assert torch.equal(p, b) and p.data_ptr() >= flat.param.data_ptr()
+    for _ in range(2):  # zero_grad, then backward accumulates into the flat gradient
+        flat.zero_grad()
+        _loss(ps, 1).backward()
+    want = torch.cat([(2 * (i + 1) * (b - 0.1)).reshape(-1) for i, b in enumerate(before)])
+    torch.testing.assert_close(flat.grad, want)
+    with torch.no_grad():
+        flat.param.add_(1.0)  # what the optimiser does: every parameter sees it
+    assert all(torch.equal(p, b + 1.0) for p, b in zip(ps, before, strict=True))
+
+
+def test_adam_on_the_flat_buffer_equals_adam_per_tensor_and_resumes_old_state():
+    ref, new = _params(1), _params(1)
+    opt_ref = torch.optim.Adam(ref, lr=0.05)
+    flat = flatten(new)
+    opt_new = torch.optim.Adam([flat.param], lr=0.05)
+    for t in range(3):
+        opt_ref.zero_grad()
+        _loss(ref, t).backward()
+        opt_ref.step()
+        flat.zero_grad()
+        _loss(new, t).backward()
+        opt_new.step()
+    for a, b in zip(ref, new, strict=True):
+        torch.testing.assert_close(a, b)
+    # a per-tensor Adam state (checkpoints written before the flat buffer) continues exactly
+    resumed = _params(9)
+    with torch.no_grad():
+        for a, b in zip(resumed, ref, strict=True):
+            a.copy_(b)
+    flat_r = flatten(resumed)
+    opt_r = torch.optim.Adam([flat_r.param], lr=0.05)
+    opt_r.load_state_dict(flatten_adam_state(opt_ref.state_dict(), flat_r.sizes))
+    for opt, ps, fl in ((opt_ref, ref, None), (opt_r, resumed, flat_r)):
+        opt.zero_grad() if fl is None else fl.zero_grad()
+        _loss(ps, 5).backward()
+        opt.step()
+    for a, b in zip(ref, resumed, strict=True):
+        torch.testing.assert_close(a, b)
+
+
+def test_agent_records_its_kernel_in_the_summary(tmp_path, ext):
+    from evodevo.neuromod.trainer import train
+    from tests.test_biarm_train import tiny
+
+    cfg = tiny()
+    summary = train(cfg, "biarm", seed=0, out=tmp_path / "b")
+    assert summary["lateral_kernel"] == "cpp"
+    assert train(cfg, "pnn", seed=0, out=tmp_path / "p")["lateral_kernel"] is None
