@@ -189,3 +189,33 @@ def test_agent_records_its_kernel_in_the_summary(tmp_path, ext):
     summary = train(cfg, "biarm", seed=0, out=tmp_path / "b")
     assert summary["lateral_kernel"] == "cpp"
     assert train(cfg, "pnn", seed=0, out=tmp_path / "p")["lateral_kernel"] is None
+
+
+def test_update_trains_every_parameter_at_the_eq_3_7_rate():
+    """Through the flat buffer, one update moves every trainable tensor of the column, at
+    the modulated learning rate, and leaves the frozen columns alone."""
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.variants import get_variant
+
+    agent = BiarmAgent(BiarmConfig(), get_variant("biarm"), obs_dim=4, seed=0)
+    agent.begin_task(2)
+    agent.begin_task(3)
+    frozen = [p.detach().clone() for p in agent.net.columns[0].parameters()]
+    before = {n: p.detach().clone() for n, p in agent.net.current.named_parameters()}
+    gen = torch.Generator().manual_seed(0)
+    batch = (
+        torch.randn(8, 4, generator=gen),
+        torch.randn(8, 4, generator=gen),
+        torch.randint(0, 3, (8,), generator=gen),
+        torch.randn(8, generator=gen),
+        torch.zeros(8),
+        torch.ones(8),
+    )
+    agent.update(batch)
+    assert agent.optimizer is not None
+    assert agent.optimizer.param_groups[0]["lr"] == pytest.approx(agent.lr())
+    assert agent.lr() != pytest.approx(agent.cfg.dqn.lr)
+    for n, p in agent.net.current.named_parameters():
+        assert not torch.equal(p, before[n]), n
+    for p, f in zip(agent.net.columns[0].parameters(), frozen, strict=True):
+        assert torch.equal(p, f)

@@ -24,7 +24,6 @@ from evodevo.neuromod.columns import Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
 from evodevo.neuromod.flat_params import FlatParams, flatten, flatten_adam_state
-from evodevo.neuromod.lr_modulation import set_lr
 from evodevo.neuromod.modules import Neuromodulators
 from evodevo.neuromod.replay import Batch, ReplayBuffer
 from evodevo.neuromod.shared_net import HeadView, SharedNet
@@ -104,6 +103,7 @@ class BiarmAgent:
         # one flat buffer: zeroing, clipping and Adam are one operation each (flat_params)
         self.flat = flatten(self.params)
         self.optimizer = torch.optim.Adam([self.flat.param], lr=self.cfg.dqn.lr, fused=True)
+        self._group = self.optimizer.param_groups[0]
         self.grad_steps = 0
         if self.modules is not None:
             self.modules.start_task()
@@ -131,7 +131,9 @@ class BiarmAgent:
         base = self.cfg.dqn.lr
         if self.modules is None:
             return base
-        return base * sum(w * x for w, x in zip(self._lr_w, self.modules._s.tolist(), strict=True))
+        w0, w1, w2, w3 = self._lr_w
+        s0, s1, s2, s3 = self.modules._s.tolist()
+        return base * (w0 * s0 + w1 * s1 + w2 * s2 + w3 * s3)
 
     def gate(self) -> float:
         """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
@@ -198,7 +200,7 @@ class BiarmAgent:
         total = torch.linalg.vector_norm(flat.grad)
         flat.grad.mul_(torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
         if self.modules is not None:
-            set_lr(opt, self.lr())
+            self._group["lr"] = self.lr()  # Eq. 3.7 (the one param group of the flat buffer)
         opt.step()
         if self.learned and self.modules is not None and self.col > 0:
             self.modules.refresh()  # the per-step update's matrices copy the trained weights
@@ -268,4 +270,5 @@ class BiarmAgent:
         self.target.load_state_dict(data["target"])
         assert self.flat is not None
         self.optimizer.load_state_dict(flatten_adam_state(data["optimizer"], self.flat.sizes))
+        self._group = self.optimizer.param_groups[0]  # load_state_dict made new group dicts
         self.grad_steps = int(data["grad_steps"])
