@@ -25,6 +25,7 @@ numbers are reproducible for the kernel it used, which ``summary.json`` records
 
 from __future__ import annotations
 
+import hashlib
 import sys
 import threading
 import warnings
@@ -41,6 +42,15 @@ SOURCE = Path(__file__).with_name("csrc") / "gated_lateral.cpp"
 
 _module: ModuleType | None = None
 _error: str | None = None
+
+
+def _build_name() -> str:
+    """Extension name, one per Python environment and torch version: two virtualenvs on one
+    machine share torch's build cache, and would otherwise rebuild it for each other."""
+    import torch
+
+    tag = hashlib.sha1(f"{sys.prefix}|{torch.__version__}".encode()).hexdigest()[:10]
+    return f"evodevo_gated_lateral_{tag}"
 
 
 def load() -> ModuleType | None:
@@ -64,7 +74,7 @@ def load() -> ModuleType | None:
         from torch.utils.cpp_extension import load as build
 
         _module = build(
-            name="evodevo_gated_lateral",
+            name=_build_name(),
             sources=[str(SOURCE)],
             extra_cflags=["-O3"],
             verbose=False,
