@@ -219,3 +219,56 @@ def test_update_trains_every_parameter_at_the_eq_3_7_rate():
         assert not torch.equal(p, before[n]), n
     for p, f in zip(agent.net.columns[0].parameters(), frozen, strict=True):
         assert torch.equal(p, f)
+
+
+@pytest.mark.parametrize("ablated", [(), ("DA",), ("NE",), ("5HT", "ACh")])
+def test_module_step_kernel_equals_the_numpy_step(ext, ablated):
+    """csrc/module_step.h against the NumPy path of Neuromodulators.step (Eq. 3.1-3.6), over
+    many steps with zero-padded observations, ablations held at 0.5, and a change of the
+    weights in place (the version check must rebuild the buffer the C++ step reads)."""
+    import numpy as np
+
+    from evodevo.neuromod.config import ModuleConfig
+    from evodevo.neuromod.modules import Neuromodulators
+
+    ref = Neuromodulators(ModuleConfig(), obs_dim=8, seed=3, ablated=ablated)
+    fast = Neuromodulators(ModuleConfig(), obs_dim=8, seed=3, ablated=ablated)
+    fast.use_kernel(ext)
+    rng = np.random.default_rng(0)
+    for i in range(600):
+        if i == 300:
+            for m in (ref, fast):
+                with torch.no_grad():
+                    m.w1.mul_(1.5)
+                    m.b2.add_(0.25)
+        obs = (3 * rng.standard_normal(8)).astype(np.float32)
+        obs[6:] = 0.0
+        reward = float(10 * rng.standard_normal())
+        ref.step(obs, reward)
+        fast.step(obs, reward)
+        np.testing.assert_allclose(fast.states, ref.states, rtol=0, atol=1e-6)
+        assert fast.n_task == ref.n_task
+    assert not np.allclose(ref.states, 0.5)  # the states moved
+    for name in ablated:
+        assert fast.states[list(("DA", "5HT", "NE", "ACh")).index(name)] == 0.5
+    # the state tensor the agent reads is the memory the C++ step writes
+    assert torch.equal(fast.state_t, torch.from_numpy(fast._s))
+
+
+def test_module_step_kernel_rejects_a_wrong_buffer(ext):
+    with pytest.raises(RuntimeError, match="module_step"):
+        ext.module_step(torch.zeros(10), 11, 128, 0.0, 1.0)
+
+
+def test_agent_runs_the_modules_through_the_kernel_it_resolved(ext):
+    from evodevo.config import replace
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import NetworkConfig
+    from evodevo.neuromod.variants import get_variant
+
+    cfg = BiarmConfig()
+    fast = BiarmAgent(cfg, get_variant("biarm"), obs_dim=4, seed=0)
+    slow_cfg = replace(cfg, network=NetworkConfig(lateral_kernel="torch"))
+    slow = BiarmAgent(slow_cfg, get_variant("biarm"), obs_dim=4, seed=0)
+    assert fast.modules is not None and fast.modules._kernel is ext
+    assert slow.modules is not None and slow.modules._kernel is None

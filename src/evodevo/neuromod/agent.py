@@ -24,6 +24,7 @@ from evodevo.neuromod.columns import Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
 from evodevo.neuromod.flat_params import FlatParams, flatten, flatten_adam_state
+from evodevo.neuromod.kernels import load as load_kernel
 from evodevo.neuromod.modules import Neuromodulators
 from evodevo.neuromod.replay import Batch, ReplayBuffer
 from evodevo.neuromod.shared_net import HeadView, SharedNet
@@ -78,6 +79,8 @@ class BiarmAgent:
                 f"variant {variant.name!r} ({variant.architecture}) is not trained by BiarmAgent"
             )
         self.progressive = isinstance(self.net, ProgressiveNet)
+        if self.modules is not None and getattr(self.net, "kernel", "torch") == "cpp":
+            self.modules.use_kernel(load_kernel())  # the module update in C++ too (kernels)
         self.ewc: EWC | None = None
         if variant.consolidation == "ewc":
             assert isinstance(self.net, SharedNet)

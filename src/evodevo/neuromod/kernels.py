@@ -1,21 +1,25 @@
-"""The fused C++ kernel of BIARM's gated laterals (SPEC §1.2-1.3), built on first use.
+"""BIARM's fused C++ kernels (SPEC §1.2-1.3), built on first use.
 
-``csrc/gated_lateral.cpp`` computes Eq. 3.8-3.9 for a column's laterals *and* the context gate
-in one call, forward and backward (a C++ ``torch.autograd.Function``): the matrix products are
-ATen calls, the element-wise steps one loop each. At the default sizes BIARM's FLOPs are
-within 5 % of PNN's, so what made it slower than PNN was the dispatch cost of the ~12 small
-Python-level operations (and autograd nodes) this one call replaces.
+* ``csrc/gated_lateral.h`` computes Eq. 3.8-3.9 for a column's laterals *and* the context
+  gate in one call, forward and backward (a C++ ``torch.autograd.Function``): the matrix
+  products are ATen calls, the element-wise steps one loop each. At the default sizes BIARM's
+  FLOPs are within 5 % of PNN's, so what made it slower than PNN was the dispatch cost of the
+  ~12 small Python-level operations (and autograd nodes) this one call replaces.
+* ``csrc/module_step.h`` is the per-step update of the four neuromodulator states
+  (Eq. 3.1-3.6) of :meth:`evodevo.neuromod.modules.Neuromodulators.step` in one call, on the
+  same matrices as its NumPy path (about 20 NumPy calls, 9-35 µs per environment step).
 
 :func:`load` compiles the extension with :func:`torch.utils.cpp_extension.load` (g++ and the
 Python headers are needed; about 30-60 s once per machine, cached under
 ``$TORCH_EXTENSIONS_DIR`` or ``~/.cache/torch_extensions``; concurrent builds from worker
 processes wait on torch's lock). :func:`resolve` turns the ``network.lateral_kernel`` setting
-into the kernel a run uses:
+into the implementation a run uses, for both kernels:
 
-* ``auto`` (default): the C++ kernel when it builds, else the PyTorch operations of
-  :func:`evodevo.neuromod.columns.gated_laterals` (one warning line);
+* ``auto`` (default): the C++ kernels when they build, else the PyTorch operations of
+  :func:`evodevo.neuromod.columns.gated_laterals` and the NumPy module update (one warning
+  line);
 * ``cpp``: the C++ kernel, or a clear error when it cannot be built;
-* ``torch``: always the PyTorch operations.
+* ``torch``: always the PyTorch operations (and the NumPy module update).
 
 Both compute the same equations; they differ in the last bits of float rounding (the C++ code
 evaluates the context gate as ``1 / (1 + exp(-x))`` and sums in another order), so a run's
@@ -34,23 +38,30 @@ from types import ModuleType
 
 from evodevo.errors import ConfigError
 
-__all__ = ["KERNELS", "load", "resolve", "SOURCE"]
+__all__ = ["KERNELS", "load", "resolve", "SOURCE", "SOURCES"]
 
 #: Accepted values of ``network.lateral_kernel``.
 KERNELS = ("auto", "cpp", "torch")
-SOURCE = Path(__file__).with_name("csrc") / "gated_lateral.cpp"
+#: The one translation unit (the kernels are header-only, so the build compiles torch's
+#: headers once).
+SOURCE = Path(__file__).with_name("csrc") / "bindings.cpp"
+#: Every file the extension is built from; their contents are part of its name.
+SOURCES = (SOURCE, SOURCE.with_name("gated_lateral.h"), SOURCE.with_name("module_step.h"))
 
 _module: ModuleType | None = None
 _error: str | None = None
 
 
 def _build_name() -> str:
-    """Extension name, one per Python environment and torch version: two virtualenvs on one
-    machine share torch's build cache, and would otherwise rebuild it for each other."""
+    """Extension name, one per Python environment, torch version and kernel source: two
+    virtualenvs on one machine share torch's build cache, and would otherwise rebuild it for
+    each other; torch only watches ``sources`` for changes, not the headers they include."""
     import torch
 
-    tag = hashlib.sha1(f"{sys.prefix}|{torch.__version__}".encode()).hexdigest()[:10]
-    return f"evodevo_gated_lateral_{tag}"
+    h = hashlib.sha1(f"{sys.prefix}|{torch.__version__}".encode())
+    for p in SOURCES:
+        h.update(p.read_bytes())
+    return f"evodevo_kernels_{h.hexdigest()[:10]}"
 
 
 def load() -> ModuleType | None:
@@ -63,7 +74,7 @@ def load() -> ModuleType | None:
     notice = threading.Timer(
         3.0,
         lambda: print(
-            "evodevo: building the fused BIARM lateral kernel (once per machine, ~30-60 s)",
+            "evodevo: building the fused BIARM kernels (once per machine, ~30-60 s)",
             file=sys.stderr,
             flush=True,
         ),
@@ -97,12 +108,12 @@ def resolve(setting: str) -> str:
         return "cpp"
     if setting == "cpp":
         raise ConfigError(
-            f"network.lateral_kernel='cpp' but the C++ kernel {SOURCE.name} did not build "
+            "network.lateral_kernel='cpp' but the C++ kernels (csrc/*.cpp) did not build "
             f"({_error}); install g++ and the Python headers, or set network.lateral_kernel "
             "to auto or torch"
         )
     warnings.warn(
-        f"the fused BIARM lateral kernel did not build ({_error}); using the PyTorch "
+        f"the fused BIARM kernels did not build ({_error}); using the PyTorch and NumPy "
         "operations (same equations, slower)",
         RuntimeWarning,
         stacklevel=2,

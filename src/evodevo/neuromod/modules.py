@@ -18,6 +18,8 @@ observation through four 64-unit networks costs microseconds in NumPy and ten ti
 torch ops): each stage is ``relu(x A) B`` with ``x = [phi(s), 1, e_1, e_2]`` and per-stage
 copies ``A``, ``B`` of the weights (biases and extra-input weights as rows of ``A``), rebuilt
 whenever the parameters change, so one step is four vector-matrix products and two ``relu``.
+With the compiled extension (:mod:`evodevo.neuromod.kernels`, :meth:`Neuromodulators.use_kernel`)
+the same step on the same matrices is one C++ call (``csrc/module_step.cpp``).
 In ``learned`` mode :meth:`Neuromodulators.batch_targets` computes the same networks on a
 mini-batch with autograd, so that the TD loss trains them through the context gate (Eq. 3.8).
 
@@ -107,13 +109,38 @@ class Neuromodulators(nn.Module):
         self._tau = np.array([dict(zip(MODULE_NAMES, cfg.taus, strict=True))[m] for m in LAYOUT])
         self._tau_eff = (self._tau * active).astype(np.float32)
         self._tau_py = [float(x) for x in self._tau_eff]
-        # State tensor (internal layout) and a NumPy view sharing its memory.
-        self.state_t = torch.full((4,), float(cfg.initial_state))
-        self.state_t[torch.from_numpy(~active)] = float(cfg.ablated_value)
-        self._s = self.state_t.numpy()
+        # One float32 buffer holds the per-step update's input row, the states, taus, output
+        # biases and stage matrices (see :meth:`_views`); the C++ step takes it as one argument
+        # (csrc/module_step.h). The state tensor (internal layout) and its NumPy view are
+        # slices of it.
+        d, h = obs_dim, cfg.hidden
+        n_in, width = d + 3, 2 * h
+        self._pack_dims = (n_in, width)
+        pack = np.zeros(n_in + 12 + 2 * n_in * width + 4 * width, dtype=np.float32)
+        self._pack = pack
+        self._pack_t = torch.from_numpy(pack)
+        self._x = pack[:n_in]
+        self._x[d] = 1.0
+        self._s = pack[n_in : n_in + 4]
+        pack[n_in + 4 : n_in + 8] = self._tau_eff
+        self._b2np = pack[n_in + 8 : n_in + 12]
+        off = n_in + 12
+        self._amat = pack[off : off + 2 * n_in * width].reshape(2, n_in, width)
+        off += 2 * n_in * width
+        self._bmat = pack[off:].reshape(2, width, 2)
+        self._s[:] = float(cfg.initial_state)
+        self._s[~active] = float(cfg.ablated_value)
+        self.state_t = self._pack_t[n_in : n_in + 4]
         self.n_task = 1.0
+        self._kernel: object | None = None
         self._views()
         self._ablated_mask_t = torch.from_numpy(~active)
+
+    def use_kernel(self, module: object | None) -> None:
+        """Run :meth:`step` through the compiled ``module_step`` of ``module`` (the extension
+        :func:`evodevo.neuromod.kernels.load` returns), or through NumPy when None."""
+        self._kernel = module
+        self._views()
 
     def _views(self) -> None:
         """Per-stage matrices of the per-step update, rebuilt from the parameters.
@@ -123,7 +150,8 @@ class Neuromodulators(nn.Module):
         observation weights, their first-layer biases and their extra-input weights (each in
         its own row, zero under the other module), ``B_g`` (2h, 2) is block-diagonal with the
         two output weight vectors. The same numbers as the parameters, laid out so that a
-        stage is two vector-matrix products. Copies, not views: :meth:`step` rebuilds them
+        stage is two vector-matrix products. Copies (into slices of the one buffer the C++
+        step reads), not views of the parameters: :meth:`step` rebuilds them
         when a parameter's version counter moved (``load_state_dict``, in-place edits), and
         :meth:`refresh` after an optimiser step (fused Adam does not count versions).
         """
@@ -131,8 +159,9 @@ class Neuromodulators(nn.Module):
         w1 = self.w1.detach().numpy()
         b1 = self.b1.detach().numpy()
         w2 = self.w2.detach().numpy()
-        a = np.zeros((2, d + 3, 2 * h), dtype=np.float32)
-        b = np.zeros((2, 2 * h, 2), dtype=np.float32)
+        a, b = self._amat, self._bmat  # written in place: slices of the one buffer
+        a.fill(0.0)
+        b.fill(0.0)
         for g in range(2):
             cols = slice(2 * g * h, 2 * (g + 1) * h)
             a[g, :d] = w1[:d, cols]
@@ -143,10 +172,9 @@ class Neuromodulators(nn.Module):
                 b[g, j * h : (j + 1) * h, j] = w2[m]
         self._a = (a[0], a[1])
         self._bo = (b[0], b[1])
-        self._b2py = [float(x) for x in self.b2.detach()]
+        self._b2np[:] = self.b2.detach().numpy()
+        self._b2py = [float(x) for x in self._b2np]
         self._z = np.empty(2 * h, dtype=np.float32)
-        self._x = np.zeros(d + 3, dtype=np.float32)
-        self._x[d] = 1.0
         self._versions = self._param_versions()
 
     def _param_versions(self) -> tuple[int, ...]:
@@ -170,6 +198,14 @@ class Neuromodulators(nn.Module):
         """
         if self._versions != self._param_versions():
             self._views()
+        if self._kernel is not None:
+            self._x[: self.obs_dim] = obs
+            n_in, width = self._pack_dims
+            self._kernel.module_step(  # type: ignore[attr-defined]
+                self._pack_t, n_in, width, reward, self.n_task
+            )
+            self.n_task *= self.cfg.novelty_decay
+            return
         s = self._s
         tau = self._tau_py
         b2 = self._b2py

@@ -13,21 +13,25 @@
 //   tq  = bq + zc[:, n*r/2:] @ uq                   lateral into the head
 //
 // The backward pass computes only the gradients autograd asks for (needs_input_grad).
+#pragma once
+
 #include <torch/extension.h>
 
 #include <cmath>
 #include <vector>
 
+namespace evodevo {
+
 using torch::Tensor;
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
-namespace {
+namespace detail {
 
 inline float sigm(float x) { return 1.0f / (1.0f + std::exp(-x)); }  // the context gate
 
 // Context gate logit(s): one per sample (B) for (B, 4) states, else one.
-std::vector<float> gate_values(const Tensor& states, const Tensor& ctx_w, int64_t bsz) {
+inline std::vector<float> gate_values(const Tensor& states, const Tensor& ctx_w, int64_t bsz) {
   const float* w = ctx_w.data_ptr<float>();
   const float* s = states.data_ptr<float>();
   const int64_t rows = states.dim() == 1 ? 1 : bsz;
@@ -150,8 +154,11 @@ class GatedLateral : public torch::autograd::Function<GatedLateral> {
   }
 };
 
-std::vector<Tensor> gated_lateral(Tensor feats, Tensor w, Tensor b, Tensor states, Tensor ctx_w,
-                                  Tensor u2, Tensor b2, Tensor uq, Tensor bq) {
+}  // namespace detail
+
+inline std::vector<Tensor> gated_lateral(Tensor feats, Tensor w, Tensor b, Tensor states,
+                                         Tensor ctx_w, Tensor u2, Tensor b2, Tensor uq,
+                                         Tensor bq) {
   TORCH_CHECK(feats.dim() == 3 && w.dim() == 3 && feats.size(0) == w.size(0) &&
                   feats.size(0) % 2 == 0 && w.size(2) % 2 == 0,
               "gated_lateral: feats (n, B, hidden) and w (n, hidden, 2r) with even n");
@@ -161,13 +168,9 @@ std::vector<Tensor> gated_lateral(Tensor feats, Tensor w, Tensor b, Tensor state
                                      : states.dim() == 2 && states.size(0) == feats.size(1) &&
                                            states.size(1) == 4),
               "gated_lateral: states (4,) or (B, 4) and ctx_w (4,)");
-  auto out = GatedLateral::apply(feats, w.contiguous(), b.contiguous(),
+  auto out = detail::GatedLateral::apply(feats, w.contiguous(), b.contiguous(),
                                  states.contiguous(), ctx_w.contiguous(), u2, b2, uq, bq);
   return {out[0], out[1]};
 }
 
-}  // namespace
-
-PYBIND11_MODULE(TORCH_EXTENSION_NAME, m) {
-  m.def("gated_lateral", &gated_lateral, "BIARM gated laterals, Eq. 3.8-3.9 (fused)");
-}
+}  // namespace evodevo

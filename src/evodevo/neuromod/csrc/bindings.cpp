@@ -1,0 +1,12 @@
+// Python module of evodevo's C++ kernels: the one translation unit that
+// evodevo.neuromod.kernels builds (the kernels are header-only, so they compile once).
+#include <torch/extension.h>
+
+#include "gated_lateral.h"
+#include "module_step.h"
+
+PYBIND11_MODULE(TORCH_EXTENSION_NAME, m) {
+  m.def("gated_lateral", &evodevo::gated_lateral, "BIARM gated laterals, Eq. 3.8-3.9 (fused)");
+  m.def("module_step", &evodevo::module_step,
+        "one update of the four neuromodulator states, Eq. 3.1-3.6 (fused)");
+}
