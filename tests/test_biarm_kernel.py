@@ -120,8 +120,37 @@ def test_kernel_setting_is_validated():
     with pytest.raises(ConfigError, match="lateral_kernel='fast' is not one of auto, cpp, torch"):
         from_dict(BiarmConfig, {"network": {"lateral_kernel": "fast"}})
     assert kernels.resolve("torch") == "torch"
-    # PNN laterals are one product per layer already: never the gated kernel
-    assert ProgressiveNet(obs_dim=3, hidden=4, gated=False, adapter_dim=2, seed=0).kernel == "torch"
+    pnn = ProgressiveNet(obs_dim=3, hidden=4, gated=False, adapter_dim=2, seed=0,
+                         lateral_kernel="torch")  # fmt: skip
+    assert pnn.kernel == "torch"
+
+
+@pytest.mark.parametrize("gated", [False, True])
+def test_cpp_frozen_features_are_bit_for_bit_the_torch_ones(ext, gated):
+    """csrc/frozen_features.h runs the same ATen operations as ProgressiveNet.features, for
+    every number of frozen columns, PNN and BIARM, after the caches were refreshed."""
+    nets = {
+        k: ProgressiveNet(
+            obs_dim=5, hidden=16, gated=gated, adapter_dim=4, seed=1, lateral_kernel=k
+        )  # fmt: skip
+        for k in ("cpp", "torch")
+    }
+    for n in (2, 3, 2, 4):
+        for net in nets.values():
+            net.add_column(n)
+    assert nets["cpp"].kernel == "cpp"
+    x = torch.randn(12, 5, generator=torch.Generator().manual_seed(2))
+    states = torch.tensor([0.2, 0.7, 0.4, 0.9])
+    for upto in (1, 2, 3):
+        got = nets["cpp"].features(x, upto, states)
+        want = nets["torch"].features(x, upto, states)
+        assert len(got) == len(want) == (1 if gated else 2)
+        for g, w in zip(got, want, strict=True):
+            assert g.shape == w.shape and torch.equal(g, w), (upto, gated)
+        # and the Q-values of a column on top of them
+        torch.testing.assert_close(
+            nets["cpp"].q(x, upto, states), nets["torch"].q(x, upto, states), rtol=1e-5, atol=1e-5
+        )
 
 
 # ------------------------------------------------------------------------- flat parameters
@@ -188,7 +217,7 @@ def test_agent_records_its_kernel_in_the_summary(tmp_path, ext):
     cfg = tiny()
     summary = train(cfg, "biarm", seed=0, out=tmp_path / "b")
     assert summary["lateral_kernel"] == "cpp"
-    assert train(cfg, "pnn", seed=0, out=tmp_path / "p")["lateral_kernel"] is None
+    assert train(cfg, "pnn", seed=0, out=tmp_path / "p")["lateral_kernel"] == "cpp"
 
 
 def test_update_trains_every_parameter_at_the_eq_3_7_rate():

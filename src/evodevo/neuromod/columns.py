@@ -242,8 +242,10 @@ class ProgressiveNet(nn.Module):
         context_weights: initial Eq. 3.8 weights in the modules' internal layout.
         learn_context: train the Eq. 3.8 weights.
         lateral_kernel: ``network.lateral_kernel`` (``auto``, ``cpp``, ``torch``), resolved by
-            :func:`evodevo.neuromod.kernels.resolve` for gated stacks; :attr:`kernel` is the
-            result (``"torch"`` for PNN, whose laterals are one product per layer already).
+            :func:`evodevo.neuromod.kernels.resolve`; :attr:`kernel` is the result. ``cpp``
+            computes the frozen columns' activations in one C++ call for PNN and BIARM alike
+            (bit for bit the PyTorch numbers), and BIARM's gated laterals in the fused kernel
+            (PNN's laterals are one matrix product per layer already).
     """
 
     def __init__(
@@ -259,7 +261,7 @@ class ProgressiveNet(nn.Module):
     ) -> None:
         super().__init__()
         self.lateral_kernel = lateral_kernel
-        self.kernel = resolve_kernel(lateral_kernel) if gated else "torch"
+        self.kernel = resolve_kernel(lateral_kernel)
         self.obs_dim = obs_dim
         self.hidden = hidden
         self.gated = gated
@@ -278,6 +280,10 @@ class ProgressiveNet(nn.Module):
         self._adw_frozen = torch.empty(0)
         self._adb_frozen = torch.empty(0)
         self._blk_src = torch.empty(0, dtype=torch.long)
+        # per frozen column (W2, b2, U2) for the C++ features (U2 empty for column 0)
+        self._frozen_w2: list[torch.Tensor] = []
+        self._frozen_b2: list[torch.Tensor] = []
+        self._frozen_u2: list[torch.Tensor] = []
         self._np: dict[int, dict[str, np.ndarray]] = {}  # NumPy views for :meth:`q_np`
 
     @property
@@ -317,6 +323,9 @@ class ProgressiveNet(nn.Module):
             return
         self._w1_frozen = torch.cat([c.w1.detach() for c in cols], 1)
         self._b1_frozen = torch.cat([c.b1.detach() for c in cols])
+        self._frozen_w2 = [c.w2.detach() for c in cols]
+        self._frozen_b2 = [c.b2.detach() for c in cols]
+        self._frozen_u2 = [c.u2.detach() if c.n_prev else torch.empty(0) for c in cols]
         if self.gated:
             self._ctxw_frozen = [c.ctx_w.detach().tolist() if c.n_prev else None for c in cols]
             lat = [c for c in cols if c.n_prev]
@@ -339,8 +348,26 @@ class ProgressiveNet(nn.Module):
         one (2*upto, B, hidden) tensor of blocks ``h1_1 .. h1_upto, h2_1 .. h2_upto``, the
         layout of the adapters' batched product (:func:`gated_laterals`). Take rows with
         :meth:`Column.rows`. Only frozen columns may be asked for (``upto <= n_columns - 1``);
-        no autograd graph.
+        no autograd graph. With ``kernel == "cpp"`` the same operations run in one C++ call
+        (``csrc/frozen_features.h``).
         """
+        if self.kernel == "cpp":
+            ext = _fused()
+            if self.gated:
+                cg = [0.0]  # column 0 has no laterals: its entry is not read
+                if upto > 1:
+                    assert states is not None
+                    cg = [0.0, *self.frozen_context(states.tolist(), upto)[1:]]
+                out = ext.frozen_features_gated(
+                    x, self._w1_frozen, self._b1_frozen, self._adw_frozen, self._adb_frozen,
+                    self._blk_src, self._frozen_w2, self._frozen_b2, self._frozen_u2, cg, upto,
+                )  # fmt: skip
+                return (out,)
+            h1, h2 = ext.frozen_features_pnn(
+                x, self._w1_frozen, self._b1_frozen,
+                self._frozen_w2, self._frozen_b2, self._frozen_u2, upto,
+            )  # fmt: skip
+            return h1, h2
         h = self.hidden
         bsz = x.shape[0]
         with torch.no_grad():

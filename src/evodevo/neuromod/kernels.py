@@ -5,6 +5,10 @@
   products are ATen calls, the element-wise steps one loop each. At the default sizes BIARM's
   FLOPs are within 5 % of PNN's, so what made it slower than PNN was the dispatch cost of the
   ~12 small Python-level operations (and autograd nodes) this one call replaces.
+* ``csrc/frozen_features.h`` computes the frozen columns' activations of a stack (PNN and
+  BIARM alike) with the same ATen operations as
+  :meth:`evodevo.neuromod.columns.ProgressiveNet.features` (bit for bit the same numbers),
+  one Python call instead of 10-20.
 * ``csrc/module_step.h`` is the per-step update of the four neuromodulator states
   (Eq. 3.1-3.6) of :meth:`evodevo.neuromod.modules.Neuromodulators.step` in one call, on the
   same matrices as its NumPy path (about 20 NumPy calls, 9-35 µs per environment step).
@@ -46,7 +50,9 @@ KERNELS = ("auto", "cpp", "torch")
 #: headers once).
 SOURCE = Path(__file__).with_name("csrc") / "bindings.cpp"
 #: Every file the extension is built from; their contents are part of its name.
-SOURCES = (SOURCE, SOURCE.with_name("gated_lateral.h"), SOURCE.with_name("module_step.h"))
+SOURCES = (SOURCE,) + tuple(
+    SOURCE.with_name(n) for n in ("frozen_features.h", "gated_lateral.h", "module_step.h")
+)
 
 _module: ModuleType | None = None
 _error: str | None = None

@@ -472,7 +472,7 @@ def train(
         "seed": seed,
         "module_learning": cfg.modules.learning,
         "adapter_dim": cfg.network.adapter_dim,
-        "lateral_kernel": getattr(agent.net, "kernel", None) if var.gated else None,
+        "lateral_kernel": getattr(agent.net, "kernel", None),
         "d_max": d_max,
         "eval_seeds": seeds,
         "tasks": tasks,

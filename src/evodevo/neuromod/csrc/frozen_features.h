@@ -1,0 +1,83 @@
+// Hidden activations of the frozen columns of a progressive stack (SPEC §1.2), PNN and BIARM.
+//
+// The same ATen operations, in the same order and on the same cached tensors, as
+// evodevo.neuromod.columns.ProgressiveNet.features (so the results are bit for bit the same),
+// called from C++: one Python call instead of 10-20 Python-dispatched operations per update.
+// No autograd: frozen columns are never trained.
+//
+// PNN:   h1 = relu(x W1f + b1f) (B, upto*h), column j: h2_j = relu(h1_j W2_j + b2_j
+//        + [h1_0 .. h1_{j-1}] U2_j); returns (h1, [h2_0 .. h2_{upto-1}]).
+// BIARM: out (2*upto, B, h) = blocks h1_0 .. h1_{upto-1}, h2_0 .. h2_{upto-1}, where column j's
+//        lateral is g_j [glu(h1_k [V|W_alpha]_(j,k) + b_(j,k))]_{k<j} U2_j (Eq. 3.8-3.9) and
+//        all frozen adapters are one batched product.
+#pragma once
+
+#include <torch/extension.h>
+
+#include <vector>
+
+namespace evodevo {
+
+inline std::vector<torch::Tensor> frozen_features_pnn(torch::Tensor x, torch::Tensor w1f,
+                                                      torch::Tensor b1f,
+                                                      std::vector<torch::Tensor> w2,
+                                                      std::vector<torch::Tensor> b2,
+                                                      std::vector<torch::Tensor> u2,
+                                                      int64_t upto) {
+  TORCH_CHECK(upto >= 1 && static_cast<int64_t>(w2.size()) >= upto &&
+                  static_cast<int64_t>(b2.size()) >= upto &&
+                  static_cast<int64_t>(u2.size()) >= upto,
+              "frozen_features_pnn: one (W2, b2, U2) per frozen column");
+  at::NoGradGuard no_grad;
+  const int64_t h = w2[0].size(0);
+  torch::Tensor h1 =
+      at::relu(at::addmm(b1f.narrow(0, 0, upto * h), x, w1f.narrow(1, 0, upto * h)));
+  std::vector<torch::Tensor> parts;
+  parts.reserve(upto);
+  for (int64_t j = 0; j < upto; ++j) {
+    torch::Tensor t2 = j ? at::addmm(b2[j], h1.narrow(1, 0, j * h), u2[j]) : b2[j];
+    parts.push_back(at::relu(at::addmm(t2, h1.narrow(1, j * h, h), w2[j])));
+  }
+  return {h1, upto == 1 ? parts[0] : at::cat(parts, 1)};
+}
+
+inline torch::Tensor frozen_features_gated(torch::Tensor x, torch::Tensor w1f, torch::Tensor b1f,
+                                           torch::Tensor adwf, torch::Tensor adbf,
+                                           torch::Tensor src, std::vector<torch::Tensor> w2,
+                                           std::vector<torch::Tensor> b2,
+                                           std::vector<torch::Tensor> u2,
+                                           std::vector<double> gates, int64_t upto) {
+  TORCH_CHECK(upto >= 1 && static_cast<int64_t>(w2.size()) >= upto &&
+                  static_cast<int64_t>(b2.size()) >= upto &&
+                  static_cast<int64_t>(u2.size()) >= upto &&
+                  static_cast<int64_t>(gates.size()) >= upto,
+              "frozen_features_gated: one (W2, b2, U2, gate) per frozen column");
+  at::NoGradGuard no_grad;
+  const int64_t h = w2[0].size(0), bsz = x.size(0);
+  torch::Tensor pre = at::addmm(b1f.narrow(0, 0, upto * h), x, w1f.narrow(1, 0, upto * h));
+  torch::Tensor out = at::empty({2 * upto, bsz, h}, x.options());
+  torch::Tensor h1 = out.narrow(0, 0, upto);
+  at::clamp_min_out(h1, pre.view({bsz, upto, h}).transpose(0, 1), 0.0);
+  torch::Tensor zc;
+  if (upto > 1) {
+    const int64_t nb = upto * (upto - 1) / 2;
+    torch::Tensor s = nb == 1 ? out.narrow(0, 0, 1) : out.index_select(0, src.narrow(0, 0, nb));
+    zc = at::glu(at::baddbmm(adbf.narrow(0, 0, nb), s, adwf.narrow(0, 0, nb)), 2);
+  }
+  for (int64_t j = 0; j < upto; ++j) {
+    torch::Tensor t2;
+    if (j == 0) {  // column 0 has no laterals, hence no gate
+      t2 = b2[0];
+    } else {
+      const int64_t s0 = j * (j - 1) / 2;
+      torch::Tensor m =
+          j == 1 ? zc[s0] : zc.narrow(0, s0, j).transpose(0, 1).reshape({bsz, -1});
+      t2 = at::addmm(b2[j], m, u2[j], 1.0, gates[j]);
+    }
+    torch::Tensor h2 = out[upto + j];
+    at::clamp_min_out(h2, at::addmm(t2, out[j], w2[j]), 0.0);
+  }
+  return out;
+}
+
+}  // namespace evodevo
