@@ -114,8 +114,8 @@ class NetworkConfig:
     )
     lateral_kernel: str = doc(
         "auto",
-        "BIARM gated laterals: cpp (fused C++ kernel, built once), torch (PyTorch ops), "
-        "auto (cpp when it builds, else torch)",
+        "cpp (C++ kernels, built once: BIARM's gated laterals and module update, the frozen "
+        "columns of PNN and BIARM), torch (PyTorch/NumPy ops), auto (cpp when it builds)",
     )
 
     def validate(self) -> None:
