@@ -301,3 +301,91 @@ def test_agent_runs_the_modules_through_the_kernel_it_resolved(ext):
     slow = BiarmAgent(slow_cfg, get_variant("biarm"), obs_dim=4, seed=0)
     assert fast.modules is not None and fast.modules._kernel is ext
     assert slow.modules is not None and slow.modules._kernel is None
+
+
+def _td_agents(variant: str, ncol: int, learn_context: bool = True):
+    from evodevo.config import replace
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import ModuleConfig, NetworkConfig
+    from evodevo.neuromod.variants import get_variant
+
+    out = {}
+    for k in ("cpp", "torch"):
+        cfg = replace(
+            BiarmConfig(),
+            network=NetworkConfig(lateral_kernel=k),
+            modules=ModuleConfig(learn_context_weights=learn_context),
+        )
+        agent = BiarmAgent(cfg, get_variant(variant), obs_dim=6, seed=0)
+        for n in (2, 3, 3, 4)[:ncol]:
+            agent.begin_task(n)
+        with torch.no_grad():  # a target network that differs from the online column
+            for p in agent.target.parameters():
+                p.mul_(0.9)
+        if agent.modules is not None:  # states away from 0.5, so the gate is not symmetric
+            agent.modules.set_states([0.3, 0.8, 0.6, 0.1])
+        out[k] = agent
+    return out
+
+
+def _td_batch(n_actions: int, bsz: int = 16, d: int = 6):
+    gen = torch.Generator().manual_seed(1)
+    rows = torch.randn(bsz, 2 * d + 4, generator=gen)  # strided columns, as the replay gives
+    return (
+        rows[:, :d],
+        rows[:, d : 2 * d],
+        torch.randint(0, n_actions, (bsz,), generator=gen),
+        3 * rows[:, 2 * d + 1],
+        (rows[:, 2 * d + 2] > 0.5).float(),
+        torch.rand(bsz, generator=gen),
+    )
+
+
+@pytest.mark.parametrize(
+    ("variant", "ncol", "learn_context"),
+    [("pnn", 1, True), ("pnn", 2, True), ("pnn", 4, True), ("biarm", 1, True),
+     ("biarm", 2, True), ("biarm", 4, True), ("biarm", 3, False), ("no-ach", 3, True)],
+)  # fmt: skip
+def test_cpp_td_update_equals_autograd(ext, variant, ncol, learn_context):
+    """csrc/td_update.h: the TD loss and every gradient of the column (the flat buffer,
+    including the context weights when trained) against autograd, then one whole update."""
+    agents = _td_agents(variant, ncol, learn_context)
+    fast, ref = agents["cpp"], agents["torch"]
+    assert fast._td_cpp is not None and ref._td_cpp is None
+    batch = _td_batch((2, 3, 3, 4)[ncol - 1])
+    loss_fast = fast._loss_cpp(batch)
+    loss_ref = ref._loss_autograd(batch)
+    ref.flat.zero_grad()
+    loss_ref.backward()
+    torch.testing.assert_close(loss_fast, loss_ref.detach(), rtol=1e-6, atol=1e-7)
+    assert ref.flat.grad.abs().max() > 1e-3  # a gradient worth comparing
+    torch.testing.assert_close(fast.flat.grad, ref.flat.grad, rtol=1e-5, atol=1e-7)
+    if variant != "pnn" and ncol > 1:
+        ctx = fast.net.current.ctx_w
+        assert ctx.requires_grad is learn_context
+        if learn_context:
+            assert ctx.grad is not None and ctx.grad.abs().sum() > 0
+    for agent in (fast, ref):
+        agent.update(batch)
+    for p, q in zip(fast.net.current.parameters(), ref.net.current.parameters(), strict=True):
+        torch.testing.assert_close(p, q, rtol=1e-5, atol=1e-6)
+
+
+def test_td_update_kernel_is_not_used_where_autograd_is_needed(ext):
+    from evodevo.config import replace
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import ModuleConfig
+    from evodevo.neuromod.variants import get_variant
+
+    learned = replace(BiarmConfig(), modules=ModuleConfig(learning="learned"))
+    for cfg, variant, uses in (
+        (BiarmConfig(), "biarm", True),
+        (BiarmConfig(), "pnn", True),
+        (learned, "biarm", False),  # per-sample gates, gradients into the module networks
+        (BiarmConfig(), "ewc", False),
+        (BiarmConfig(), "finetune", False),
+    ):
+        agent = BiarmAgent(cfg, get_variant(variant), obs_dim=4, seed=0)
+        agent.begin_task(2)
+        agent.begin_task(3)
+        assert (agent._td_cpp is not None) is uses, variant

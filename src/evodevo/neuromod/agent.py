@@ -8,9 +8,12 @@ baselines (issue 4) swap the column stack for one shared body with per-task head
 gradient step and consolidates the Fisher at the end of each task (:meth:`end_task`).
 
 Hot path (per environment step): :meth:`act` (greedy forward in NumPy on a preallocated
-row, :meth:`~evodevo.neuromod.columns.ProgressiveNet.q_np`), :meth:`observe` (module update in NumPy), :meth:`update` (one DQN
-gradient step). Frozen columns are computed once per update for the mini-batch states and
-next states together, without autograd.
+row, :meth:`~evodevo.neuromod.columns.ProgressiveNet.q_np`), :meth:`observe` (module update),
+:meth:`update` (one DQN gradient step). Frozen columns are computed once per update for the
+mini-batch states and next states together, without autograd. With the C++ kernels
+(:mod:`evodevo.neuromod.kernels`) the loss and its gradients of a progressive column are one
+call (``csrc/td_update.h``) for PNN and BIARM alike; ``learned`` modules and the shared-body
+baselines use autograd (:meth:`_loss_autograd`).
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ from evodevo.neuromod.shared_net import HeadView, SharedNet
 from evodevo.neuromod.variants import Variant
 
 __all__ = ["BiarmAgent"]
+
+_EMPTY = torch.empty(0)  # "no tensor" for the C++ calls (no module states; untrained ctx_w)
 
 
 class BiarmAgent:
@@ -92,6 +97,9 @@ class BiarmAgent:
         self.optimizer: torch.optim.Optimizer | None = None
         self.params: list[torch.nn.Parameter] = []
         self.flat: FlatParams | None = None
+        # (online parameters, target parameters, gradient views) for the C++ TD update
+        self._td_cpp: tuple[list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]] | None
+        self._td_cpp = None
         self.grad_steps = 0
 
     # ------------------------------------------------------------------ tasks
@@ -107,6 +115,20 @@ class BiarmAgent:
         self.flat = flatten(self.params)
         self.optimizer = torch.optim.Adam([self.flat.param], lr=self.cfg.dqn.lr, fused=True)
         self._group = self.optimizer.param_groups[0]
+        self._td_cpp = None
+        net = self.net
+        cpp = isinstance(net, ProgressiveNet) and net.kernel == "cpp"
+        if cpp and not self.learned and self.ewc is None:  # C++ loss + gradients (td_update.h)
+            column = net.current
+            self._td_cpp = (
+                list(column.parameters()),
+                list(self.target.parameters()),
+                # the views of the flat gradient buffer, in parameter order
+                [
+                    p.grad if p.requires_grad and p.grad is not None else _EMPTY
+                    for p in column.parameters()
+                ],
+            )
         self.grad_steps = 0
         if self.modules is not None:
             self.modules.start_task()
@@ -166,12 +188,54 @@ class BiarmAgent:
 
     def update(self, batch: Batch) -> torch.Tensor:
         """One DQN gradient step (SPEC §1.6) at the Eq. 3.7 learning rate; returns the loss."""
+        dqn = self.cfg.dqn
+        column = self.net.current
+        target = self.target
+        opt = self.optimizer
+        flat = self.flat
+        assert target is not None and opt is not None and flat is not None
+        if self._td_cpp is not None:
+            loss = self._loss_cpp(batch)  # writes every gradient into flat.grad
+        else:
+            loss = self._loss_autograd(batch)
+            flat.zero_grad()
+            loss.backward()  # accumulates into flat.grad (every .grad is a view of it)
+        # gradient-norm clip (what clip_grad_norm_ does), on the one flat gradient
+        total = torch.linalg.vector_norm(flat.grad)
+        flat.grad.mul_(torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
+        if self.modules is not None:
+            self._group["lr"] = self.lr()  # Eq. 3.7 (the one param group of the flat buffer)
+        opt.step()
+        if self.learned and self.modules is not None and self.col > 0:
+            self.modules.refresh()  # the per-step update's matrices copy the trained weights
+        self.grad_steps += 1
+        if self.grad_steps % dqn.target_update == 0:
+            target.load_state_dict(column.state_dict())
+        return loss
+
+    def _loss_cpp(self, batch: Batch) -> torch.Tensor:
+        """TD loss of a progressive column with its gradients, in one C++ call."""
+        obs, nobs, act, rew, term, _ = batch
+        net = self.net
+        assert isinstance(net, ProgressiveNet) and self._td_cpp is not None
+        online, target, grads = self._td_cpp
+        col = self.col
+        st = self.states_t
+        prev = net.features(torch.cat((obs, nobs)), col, st) if col > 0 else ()
+        dqn = self.cfg.dqn
+        return load_kernel().td_update(  # type: ignore[union-attr]
+            obs, nobs, act, rew, term, list(prev), _EMPTY if st is None else st,
+            online, target, grads, net.gated, dqn.gamma, dqn.huber_delta,
+        )  # fmt: skip
+
+    def _loss_autograd(self, batch: Batch) -> torch.Tensor:
+        """TD loss (Huber on the taken actions, SPEC §1.6) with its autograd graph."""
         obs, nobs, act, rew, term, n_task = batch
         dqn = self.cfg.dqn
         col = self.col
         column = self.net.current
         target = self.target
-        assert target is not None and self.optimizer is not None
+        assert target is not None
         st = self.states_t
         bsz = obs.shape[0]
         if col > 0 and isinstance(self.net, ProgressiveNet):
@@ -194,22 +258,6 @@ class BiarmAgent:
         loss = huber(q, y, dqn.huber_delta)
         if self.ewc is not None:
             loss = loss + self.ewc.penalty()
-        opt = self.optimizer
-        flat = self.flat
-        assert flat is not None
-        flat.zero_grad()
-        loss.backward()  # accumulates into flat.grad (every parameter's .grad is a view of it)
-        # gradient-norm clip (what clip_grad_norm_ does), on the one flat gradient
-        total = torch.linalg.vector_norm(flat.grad)
-        flat.grad.mul_(torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
-        if self.modules is not None:
-            self._group["lr"] = self.lr()  # Eq. 3.7 (the one param group of the flat buffer)
-        opt.step()
-        if self.learned and self.modules is not None and self.col > 0:
-            self.modules.refresh()  # the per-step update's matrices copy the trained weights
-        self.grad_steps += 1
-        if self.grad_steps % dqn.target_update == 0:
-            target.load_state_dict(column.state_dict())
         return loss
 
     # ------------------------------------------------------------------ evaluation

@@ -9,6 +9,11 @@
   BIARM alike) with the same ATen operations as
   :meth:`evodevo.neuromod.columns.ProgressiveNet.features` (bit for bit the same numbers),
   one Python call instead of 10-20.
+* ``csrc/td_update.h`` is the whole DQN loss and its backward pass for the trainable column
+  (PNN and BIARM alike, scalar context gate), written out, with the gradients written into
+  the flat gradient buffer: one call instead of about 40 Python-level operations and an
+  autograd graph. ``learned`` module mode (per-sample gates with gradients into the module
+  networks) and the shared-body baselines keep the autograd path.
 * ``csrc/module_step.h`` is the per-step update of the four neuromodulator states
   (Eq. 3.1-3.6) of :meth:`evodevo.neuromod.modules.Neuromodulators.step` in one call, on the
   same matrices as its NumPy path (about 20 NumPy calls, 9-35 µs per environment step).
@@ -51,7 +56,8 @@ KERNELS = ("auto", "cpp", "torch")
 SOURCE = Path(__file__).with_name("csrc") / "bindings.cpp"
 #: Every file the extension is built from; their contents are part of its name.
 SOURCES = (SOURCE,) + tuple(
-    SOURCE.with_name(n) for n in ("frozen_features.h", "gated_lateral.h", "module_step.h")
+    SOURCE.with_name(n)
+    for n in ("frozen_features.h", "gated_lateral.h", "module_step.h", "td_update.h")
 )
 
 _module: ModuleType | None = None
