@@ -46,6 +46,8 @@ from evodevo.seeding import torch_gen
 
 __all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals"]
 
+_EMPTY = torch.empty(0)  # "no states" for the C++ features of a single frozen column
+
 
 def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:
     """Xavier-uniform tensor of ``shape`` with explicit (fan_in, fan_out)."""
@@ -277,6 +279,7 @@ class ProgressiveNet(nn.Module):
         # order (1,0), (2,0), (2,1), (3,0) ..., so the first upto*(upto-1)/2 blocks are those of
         # columns < upto; ``_blk_src`` names the frozen h1_k each block reads.
         self._ctxw_frozen: list[list[float] | None] = []
+        self._ctxw_frozen_t = torch.empty(0, 4)  # the same, (columns, 4), zeros for column 0
         self._adw_frozen = torch.empty(0)
         self._adb_frozen = torch.empty(0)
         self._blk_src = torch.empty(0, dtype=torch.long)
@@ -328,6 +331,7 @@ class ProgressiveNet(nn.Module):
         self._frozen_u2 = [c.u2.detach() if c.n_prev else torch.empty(0) for c in cols]
         if self.gated:
             self._ctxw_frozen = [c.ctx_w.detach().tolist() if c.n_prev else None for c in cols]
+            self._ctxw_frozen_t = torch.tensor([w or [0.0] * 4 for w in self._ctxw_frozen])
             lat = [c for c in cols if c.n_prev]
             if lat:
                 self._adw_frozen = torch.cat([c.ad_w.detach()[: c.n_prev] for c in lat])
@@ -354,13 +358,12 @@ class ProgressiveNet(nn.Module):
         if self.kernel == "cpp":
             ext = _fused()
             if self.gated:
-                cg = [0.0]  # column 0 has no laterals: its entry is not read
                 if upto > 1:
                     assert states is not None
-                    cg = [0.0, *self.frozen_context(states.tolist(), upto)[1:]]
                 out = ext.frozen_features_gated(
                     x, self._w1_frozen, self._b1_frozen, self._adw_frozen, self._adb_frozen,
-                    self._blk_src, self._frozen_w2, self._frozen_b2, self._frozen_u2, cg, upto,
+                    self._blk_src, self._frozen_w2, self._frozen_b2, self._frozen_u2,
+                    self._ctxw_frozen_t, _EMPTY if states is None else states, upto,
                 )  # fmt: skip
                 return (out,)
             h1, h2 = ext.frozen_features_pnn(

@@ -178,7 +178,12 @@ class Neuromodulators(nn.Module):
         self._versions = self._param_versions()
 
     def _param_versions(self) -> tuple[int, ...]:
-        return (self.w1._version, self.b1._version, self.w2._version, self.b2._version)
+        # the parameters from a plain attribute: nn.Module's __getattr__ (parameters live in
+        # _parameters) costs about a microsecond each on this per-step path
+        ps = self.__dict__.get("_ptuple")
+        if ps is None or ps[0] is not self._parameters["w1"]:
+            ps = self.__dict__["_ptuple"] = (self.w1, self.b1, self.w2, self.b2)
+        return (ps[0]._version, ps[1]._version, ps[2]._version, ps[3]._version)
 
     def refresh(self) -> None:
         """Rebuild the per-step matrices (after an optimiser step on the module networks)."""
