@@ -176,7 +176,7 @@ class BiarmAgent:
             return int(rng.integers(self.net.current.n_actions))
         net = self.net
         if isinstance(net, ProgressiveNet):  # NumPy forward: batch 1 is per-op overhead
-            st = self.modules._s.tolist() if self.modules is not None else None
+            st = self.modules._s if self.modules is not None else None
             return int(net.q_np(self.obs_np, self.col, st).argmax())
         with torch.no_grad():
             return int(net.q(self.obs_t, self.col, self.states_t).argmax())

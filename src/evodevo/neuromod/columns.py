@@ -427,6 +427,8 @@ class ProgressiveNet(nn.Module):
             views = {n: p.detach().numpy() for n, p in c.named_parameters()}
             views["w1f"] = self._w1_frozen.numpy()
             views["b1f"] = self._b1_frozen.numpy()
+            if self.gated:
+                views["ctxwf"] = self._ctxw_frozen_t.numpy()
             if self.gated and col > 1:
                 views["adwf"] = self._adw_frozen.numpy()
                 views["adbf"] = self._adb_frozen.numpy()
@@ -434,13 +436,16 @@ class ProgressiveNet(nn.Module):
             self._np[col] = views
         return views
 
-    def q_np(self, x: np.ndarray, col: int, states: Sequence[float] | None) -> np.ndarray:
+    def q_np(
+        self, x: np.ndarray, col: int, states: Sequence[float] | np.ndarray | None
+    ) -> np.ndarray:
         """:meth:`q` of ONE padded observation ``x`` (float32, ``obs_dim``) in NumPy.
 
         The same equations as :meth:`features` and :meth:`Column.forward` with float gates
         (last-bit rounding aside), for acting: at batch 1 every torch operation costs several
         times its NumPy equivalent. ``states`` are the four scalar states (internal layout;
-        BIARM only). Returns the Q-values (n_actions,) of column ``col``.
+        BIARM only); the context gates of all columns are two vector products (float32).
+        Returns the Q-values (n_actions,) of column ``col``.
         """
         v = self._np_views(col)
         h1 = x @ v["w1"]
@@ -456,11 +461,13 @@ class ProgressiveNet(nn.Module):
         hf = x @ v["w1f"][:, : col * h]
         hf += v["b1f"][: col * h]
         np.maximum(hf, 0.0, out=feats[:col].reshape(-1))
-        gates: list[float] = []
+        gates = np.empty(0, dtype=np.float32)
         zf = feats
+        s = np.empty(0, dtype=np.float32)
         if self.gated:
             assert states is not None
-            gates = self.frozen_context(states, col)
+            s = np.asarray(states, dtype=np.float32)
+            gates = expit(v["ctxwf"][:col] @ s)  # entry 0 (column 0, no laterals) unused
             if col > 1:  # all frozen columns' layer-2 adapters in one batched product
                 nb = col * (col - 1) // 2
                 of = np.matmul(feats[v["src"][:nb], None], v["adwf"][:nb])[:, 0]
@@ -483,7 +490,7 @@ class ProgressiveNet(nn.Module):
             o += v["ad_b"][:, 0]
             r = o.shape[1] // 2
             zc = o[:, :r] * expit(o[:, r:])
-            g = context_value(v["ctx_w"].tolist(), states)
+            g = expit(v["ctx_w"] @ s)
             t2 = g * (zc[:col].reshape(-1) @ v["u2"])
             tq = g * (zc[col:].reshape(-1) @ v["uq"])
         else:
