@@ -389,3 +389,33 @@ def test_td_update_kernel_is_not_used_where_autograd_is_needed(ext):
         agent.begin_task(2)
         agent.begin_task(3)
         assert (agent._td_cpp is not None) is uses, variant
+
+
+def test_agent_observe_through_the_kernel_equals_the_numpy_step(ext):
+    """The trainer's per-step call (agent.observe on the agent's own observation row) takes the
+    C++ closure; another array, and a weight changed in place, take Neuromodulators.step."""
+    import numpy as np
+
+    from evodevo.config import replace
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import NetworkConfig
+    from evodevo.neuromod.variants import get_variant
+
+    cfg = BiarmConfig()
+    fast = BiarmAgent(cfg, get_variant("biarm"), obs_dim=6, seed=2)
+    ref_cfg = replace(cfg, network=NetworkConfig(lateral_kernel="torch"))
+    ref = BiarmAgent(ref_cfg, get_variant("biarm"), obs_dim=6, seed=2)
+    assert fast.modules is not None and ref.modules is not None
+    rng = np.random.default_rng(0)
+    for i in range(400):
+        obs = (2 * rng.standard_normal(6)).astype(np.float32)
+        r = float(rng.standard_normal())
+        if i == 200:
+            for a in (fast, ref):
+                with torch.no_grad():
+                    a.modules.w2.mul_(-1.0)
+        for a in (fast, ref):
+            a.obs_np[:] = obs
+            a.observe(a.obs_np if i % 3 else obs.copy(), r)  # own row, or another array
+        np.testing.assert_allclose(fast.modules.states, ref.modules.states, rtol=0, atol=1e-6)
+        assert fast.modules.n_task == ref.modules.n_task

@@ -18,6 +18,7 @@ baselines use autograd (:meth:`_loss_autograd`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -92,6 +93,9 @@ class BiarmAgent:
             self.ewc = EWC(list(self.net.shared_parameters()), cfg.ewc.lam)
         self.obs_t = torch.zeros(1, obs_dim)
         self.obs_np = self.obs_t.numpy()[0]
+        self._module_step: Callable[[np.ndarray, float], None] | None = None
+        if self.modules is not None:  # the per-step update as a closure on the obs row
+            self._module_step = self.modules.step_function(self.obs_np, self.obs_t[0])
         self.col = -1
         self.target: Column | HeadView | None = None
         self.optimizer: torch.optim.Optimizer | None = None
@@ -183,8 +187,8 @@ class BiarmAgent:
 
     def observe(self, obs: np.ndarray, reward: float) -> None:
         """Module update for one environment step (Eq. 3.1-3.6); no-op for PNN."""
-        if self.modules is not None:
-            self.modules.step(obs, reward)
+        if self._module_step is not None:
+            self._module_step(obs, reward)
 
     def update(self, batch: Batch) -> torch.Tensor:
         """One DQN gradient step (SPEC §1.6) at the Eq. 3.7 learning rate; returns the loss."""

@@ -37,7 +37,7 @@ True
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import torch
@@ -237,6 +237,37 @@ class Neuromodulators(nn.Module):
         s[2] = s_5ht + tau[2] * (logistic(l_5ht + b2[2]) - s_5ht)
         s[3] = s_ach + tau[3] * (logistic(l_ach + b2[3]) - s_ach)
         self.n_task *= self.cfg.novelty_decay
+
+    def step_function(
+        self, row: np.ndarray, row_t: torch.Tensor
+    ) -> Callable[[np.ndarray, float], None]:
+        """:meth:`step` as a closure for the per-step loop of the trainer.
+
+        With the C++ kernel, a call with ``row`` (the agent's observation row, whose memory
+        ``row_t`` shares) is one C++ call that reads the observation from ``row_t``, with the
+        parameter-version check of :meth:`step` on local references; any other call, or a
+        changed parameter, goes through :meth:`step`. Without the kernel it is :meth:`step`.
+        """
+        kernel = self._kernel
+        if kernel is None:
+            return self.step
+        call = kernel.module_step_obs  # type: ignore[attr-defined]
+        pack = self._pack_t
+        n_in, width = self._pack_dims
+        decay = self.cfg.novelty_decay
+        w1, b1, w2, b2 = self.w1, self.b1, self.w2, self.b2
+        step = self.step
+
+        def fast(obs: np.ndarray, reward: float) -> None:
+            if obs is not row or self._versions != (
+                w1._version, b1._version, w2._version, b2._version
+            ):  # fmt: skip
+                step(obs, reward)
+                return
+            call(pack, row_t, n_in, width, reward, self.n_task)
+            self.n_task *= decay
+
+        return fast
 
     # ----------------------------------------------------------------- learned mode
     def batch_targets(

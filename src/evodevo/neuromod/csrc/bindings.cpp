@@ -17,4 +17,6 @@ PYBIND11_MODULE(TORCH_EXTENSION_NAME, m) {
         "DQN loss and gradients of a progressive column, PNN and BIARM (SPEC 1.6)");
   m.def("module_step", &evodevo::module_step,
         "one update of the four neuromodulator states, Eq. 3.1-3.6 (fused)");
+  m.def("module_step_obs", &evodevo::module_step_obs,
+        "module_step reading the observation from a tensor");
 }

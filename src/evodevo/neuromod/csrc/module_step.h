@@ -80,4 +80,16 @@ inline void module_step(torch::Tensor pack, int64_t n_in, int64_t width, double 
   }
 }
 
+// The same, with phi(s) copied into the buffer from `obs` (a float32 tensor of >= n_in - 3
+// entries, e.g. the agent's observation row) instead of being written by the caller.
+inline void module_step_obs(torch::Tensor pack, torch::Tensor obs, int64_t n_in, int64_t width,
+                            double reward, double n_task) {
+  TORCH_CHECK(obs.scalar_type() == at::kFloat && obs.is_contiguous() && obs.numel() >= n_in - 3,
+              "module_step_obs: a contiguous float32 observation of at least d_max entries");
+  TORCH_CHECK(pack.dim() == 1 && pack.scalar_type() == at::kFloat && pack.numel() > n_in,
+              "module_step_obs: the module buffer");
+  std::copy_n(obs.data_ptr<float>(), n_in - 3, pack.data_ptr<float>());
+  module_step(pack, n_in, width, reward, n_task);
+}
+
 }  // namespace evodevo
