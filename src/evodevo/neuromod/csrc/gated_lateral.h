@@ -44,6 +44,62 @@ inline std::vector<float> gate_values(const Tensor& states, const Tensor& ctx_w,
   return g;
 }
 
+// zc (B, n*r) = o[k, i, :r] * sg[k, i] * g_i, block k in columns k*r .. k*r+r-1 (Eq. 3.8:
+// alpha * V h with the glu's sigmoid half `sg`); g holds one gate per sample, or one for all.
+inline void gated_glu_forward(const Tensor& o, const Tensor& sg, const std::vector<float>& g,
+                              Tensor& zc) {
+  const int64_t n = o.size(0), bsz = o.size(1), r = o.size(2) / 2, width = n * r;
+  const bool per_sample = g.size() > 1;
+  const float* po = o.data_ptr<float>();
+  const float* ps = sg.data_ptr<float>();
+  float* pz = zc.data_ptr<float>();
+  for (int64_t k = 0; k < n; ++k) {
+    for (int64_t i = 0; i < bsz; ++i) {
+      const float* a = po + (k * bsz + i) * 2 * r;
+      const float* sgi = ps + (k * bsz + i) * r;
+      float* out = pz + i * width + k * r;
+      const float gi = g[per_sample ? i : 0];
+      for (int64_t j = 0; j < r; ++j) out[j] = (a[j] * sgi[j]) * gi;
+    }
+  }
+}
+
+// The backward of gated_glu_forward: dout (n, B, 2r) = d loss / d o from d loss / d zc, given
+// as the two heads' (B, n*r/2) blocks dm2 (into layer 2) and dmq (into the head); adds
+// d loss / d g_i into dg (one entry per gate).
+inline void gated_glu_backward(const Tensor& o, const Tensor& sg, const std::vector<float>& g,
+                               const Tensor& dm2, const Tensor& dmq, Tensor& dout,
+                               std::vector<double>& dg) {
+  const int64_t n = o.size(0), bsz = o.size(1), r = o.size(2) / 2;
+  const int64_t half = (n / 2) * r, per = n / 2;
+  const bool per_sample = g.size() > 1;
+  const float* pdm[2] = {dm2.data_ptr<float>(), dmq.data_ptr<float>()};
+  const float* po = o.data_ptr<float>();
+  const float* ps = sg.data_ptr<float>();
+  float* pd = dout.data_ptr<float>();
+  for (int64_t k = 0; k < n; ++k) {
+    const float* src = pdm[k / per];
+    const int64_t col0 = (k % per) * r;
+    for (int64_t i = 0; i < bsz; ++i) {
+      const float* a = po + (k * bsz + i) * 2 * r;
+      const float* sgi = ps + (k * bsz + i) * r;
+      float* da = pd + (k * bsz + i) * 2 * r;
+      float* dq = da + r;
+      const float* d = src + i * half + col0;
+      const int64_t gi = per_sample ? i : 0;
+      const float gv = g[gi];
+      float acc = 0.0f;
+      for (int64_t j = 0; j < r; ++j) acc += d[j] * (a[j] * sgi[j]);
+      for (int64_t j = 0; j < r; ++j) {
+        const float dz = d[j] * gv;
+        da[j] = dz * sgi[j];
+        dq[j] = da[j] * a[j] * (1.0f - sgi[j]);
+      }
+      dg[gi] += acc;
+    }
+  }
+}
+
 class GatedLateral : public torch::autograd::Function<GatedLateral> {
  public:
   static variable_list forward(AutogradContext* ctx, Tensor feats, Tensor w, Tensor b,
@@ -57,21 +113,9 @@ class GatedLateral : public torch::autograd::Function<GatedLateral> {
       o = at::baddbmm(b, feats, w);  // (n, B, 2r), contiguous
     }
     const std::vector<float> g = gate_values(states, ctx_w, bsz);
-    const bool per_sample = g.size() > 1;
     Tensor sg = at::sigmoid(o.narrow(2, r, r));  // (n, B, r), vectorised
     Tensor zc = at::empty({bsz, width}, o.options());
-    const float* po = o.data_ptr<float>();
-    const float* ps = sg.data_ptr<float>();
-    float* pz = zc.data_ptr<float>();
-    for (int64_t k = 0; k < n; ++k) {
-      for (int64_t i = 0; i < bsz; ++i) {
-        const float* a = po + (k * bsz + i) * 2 * r;
-        const float* sgi = ps + (k * bsz + i) * r;
-        float* out = pz + i * width + k * r;
-        const float gi = g[per_sample ? i : 0];
-        for (int64_t j = 0; j < r; ++j) out[j] = (a[j] * sgi[j]) * gi;
-      }
-    }
+    gated_glu_forward(o, sg, g, zc);
     Tensor t2, tq;
     {
       at::NoGradGuard no_grad;
@@ -89,8 +133,7 @@ class GatedLateral : public torch::autograd::Function<GatedLateral> {
     const Tensor &ctx_w = s[5], &u2 = s[6], &uq = s[7];
     const auto gl = ctx->saved_data["g"].toDoubleList();
     const int64_t n = feats.size(0), bsz = feats.size(1), r = o.size(2) / 2;
-    const int64_t half = (n / 2) * r, per = n / 2;
-    const bool per_sample = gl.size() > 1;
+    const int64_t half = (n / 2) * r;
     Tensor dt2 = grads[0].defined() ? grads[0].contiguous() : at::zeros({bsz, u2.size(1)}, u2.options());
     Tensor dtq = grads[1].defined() ? grads[1].contiguous() : at::zeros({bsz, uq.size(1)}, uq.options());
     Tensor dw, db, dstates, dctx, du2, db2, duq, dbq;
@@ -103,33 +146,9 @@ class GatedLateral : public torch::autograd::Function<GatedLateral> {
     if (!(need_adapters || need_gate)) return {Tensor(), dw, db, dstates, dctx, du2, db2, duq, dbq};
     // d loss / d zc, one (B, half) block per head
     const Tensor dm[2] = {at::mm(dt2, u2.t()), at::mm(dtq, uq.t())};
-    const float* pdm[2] = {dm[0].data_ptr<float>(), dm[1].data_ptr<float>()};
     Tensor dout = at::empty_like(o);  // d loss / d o, (n, B, 2r)
-    const float* po = o.data_ptr<float>();
-    const float* ps = sg.data_ptr<float>();
-    float* pd = dout.data_ptr<float>();
     std::vector<double> dg(gl.size(), 0.0);  // d loss / d g
-    for (int64_t k = 0; k < n; ++k) {
-      const float* src = pdm[k / per];
-      const int64_t col0 = (k % per) * r;
-      for (int64_t i = 0; i < bsz; ++i) {
-        const float* a = po + (k * bsz + i) * 2 * r;
-        const float* sgi = ps + (k * bsz + i) * r;
-        float* da = pd + (k * bsz + i) * 2 * r;
-        float* dq = da + r;
-        const float* d = src + i * half + col0;
-        const int64_t gi = per_sample ? i : 0;
-        const float g = static_cast<float>(gl[gi]);
-        float acc = 0.0f;
-        for (int64_t j = 0; j < r; ++j) acc += d[j] * (a[j] * sgi[j]);
-        for (int64_t j = 0; j < r; ++j) {
-          const float dz = d[j] * g;
-          da[j] = dz * sgi[j];
-          dq[j] = da[j] * a[j] * (1.0f - sgi[j]);
-        }
-        dg[gi] += acc;
-      }
-    }
+    gated_glu_backward(o, sg, std::vector<float>(gl.begin(), gl.end()), dm[0], dm[1], dout, dg);
     if (need_adapters) {
       at::NoGradGuard no_grad;
       if (ctx->needs_input_grad(1)) dw = at::bmm(feats.transpose(1, 2), dout);

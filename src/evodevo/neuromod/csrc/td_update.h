@@ -25,6 +25,8 @@
 
 #include <torch/extension.h>
 
+#include "gated_lateral.h"
+
 #include <cmath>
 #include <vector>
 
@@ -63,16 +65,7 @@ inline ColumnOut column_forward(const torch::Tensor& x, const std::vector<torch:
       torch::Tensor o = at::baddbmm(p[7], feats, adw);  // (n, B, 2r)
       torch::Tensor sg = at::sigmoid(o.narrow(2, r, r));
       torch::Tensor zc = at::empty({bsz, n * r}, o.options());
-      const float* po = o.data_ptr<float>();
-      const float* ps = sg.data_ptr<float>();
-      float* pz = zc.data_ptr<float>();
-      for (int64_t k = 0; k < n; ++k)
-        for (int64_t i = 0; i < bsz; ++i) {
-          const float* a = po + (k * bsz + i) * 2 * r;
-          const float* sgi = ps + (k * bsz + i) * r;
-          float* out = pz + i * n * r + k * r;
-          for (int64_t j = 0; j < r; ++j) out[j] = (a[j] * sgi[j]) * g;
-        }
+      gated_glu_forward(o, sg, {g}, zc);
       t2 = at::addmm(p[3], zc.narrow(1, 0, half), p[8]);
       tq = at::addmm(p[5], zc.narrow(1, half, half), p[9]);
       if (keep) {
@@ -133,35 +126,14 @@ inline torch::Tensor td_update(torch::Tensor x, torch::Tensor nx, torch::Tensor 
   }
   // BIARM laterals: U2, Uq, then through the gated glu into [V|W_alpha], its bias and the gate
   const torch::Tensor &o = on.o, &sg = on.sg, &zc = on.zc;
-  const int64_t n = o.size(0), r = o.size(2) / 2, half = (n / 2) * r, per = n / 2;
+  const int64_t n = o.size(0), r = o.size(2) / 2, half = (n / 2) * r;
   at::mm_out(grads[8], zc.narrow(1, 0, half).t(), da2);
   at::mm_out(grads[9], zc.narrow(1, half, half).t(), dq);
   const torch::Tensor dm[2] = {at::mm(da2, online[8].t()), at::mm(dq, online[9].t())};
-  const float* pdm[2] = {dm[0].data_ptr<float>(), dm[1].data_ptr<float>()};
   torch::Tensor dout = at::empty_like(o);
-  const float* po = o.data_ptr<float>();
-  const float* ps = sg.data_ptr<float>();
-  float* pd = dout.data_ptr<float>();
-  const float g = static_cast<float>(on.g);
-  double dg = 0.0;
-  for (int64_t k = 0; k < n; ++k) {
-    const float* src = pdm[k / per];
-    const int64_t col0 = (k % per) * r;
-    for (int64_t i = 0; i < bsz; ++i) {
-      const float* av = po + (k * bsz + i) * 2 * r;
-      const float* sgi = ps + (k * bsz + i) * r;
-      float* da = pd + (k * bsz + i) * 2 * r;
-      float* dqv = da + r;
-      const float* d = src + i * half + col0;
-      float acc = 0.0f;
-      for (int64_t j = 0; j < r; ++j) acc += d[j] * (av[j] * sgi[j]);
-      for (int64_t j = 0; j < r; ++j) {
-        da[j] = d[j] * g * sgi[j];
-        dqv[j] = da[j] * av[j] * (1.0f - sgi[j]);
-      }
-      dg += acc;
-    }
-  }
+  std::vector<double> dgv(1, 0.0);
+  detail::gated_glu_backward(o, sg, {static_cast<float>(on.g)}, dm[0], dm[1], dout, dgv);
+  const double dg = dgv[0];
   at::bmm_out(grads[6], prev[0].narrow(1, 0, bsz).transpose(1, 2), dout);
   at::sum_out(grads[7], dout, {1}, true);
   if (grads[10].numel() == 4) {  // d loss / d ctx_w = dg g (1 - g) states
