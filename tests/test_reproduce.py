@@ -286,3 +286,23 @@ def test_coverage_lists_what_a_budget_leaves_out():
     assert "- `grn.population`: 4 (full protocol 12)" in quick
     part = from_dict(ReproduceConfig, {"name": "part", "biarm": {"enabled": False}})
     assert coverage(part)[4:-1] == ["- `biarm`: not run (the full protocol runs it)"]
+
+
+def test_an_evolution_stopped_mid_way_is_not_done(tmp_path):
+    """grn evolve writes summary.json after every generation: a run that stopped at
+    generation 6 of 15 (``"done": false``) must resume, not be skipped as finished."""
+    import json
+
+    from evodevo.reproduce.pipeline import Step
+
+    summary = tmp_path / "summary.json"
+    step = Step("grn-evolve-x", ["grn", "evolve"], [summary])
+    assert not step.done()  # nothing yet
+    summary.write_text(json.dumps({"generations_run": 6, "done": False}))
+    assert not step.done()
+    summary.write_text("{half-writ")
+    assert not step.done()
+    summary.write_text(json.dumps({"generations_run": 15, "done": True}))
+    assert step.done()
+    summary.write_text(json.dumps({"variant": "biarm"}))  # summaries without the flag: final
+    assert step.done()

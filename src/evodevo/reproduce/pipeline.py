@@ -26,7 +26,10 @@ __all__ = ["Step", "plan", "run_reproduce", "run_step"]
 
 @dataclass
 class Step:
-    """One CLI call: ``argv`` after ``evodevo``; done when every path in ``outputs`` exists."""
+    """One CLI call: ``argv`` after ``evodevo``; done when every path in ``outputs`` exists and
+    no output ``summary.json`` says ``"done": false`` (``grn evolve`` writes its summary after
+    every generation, so an evolution stopped mid-way has one: it must resume, not count as
+    finished)."""
 
     name: str
     argv: list[str]
@@ -36,7 +39,18 @@ class Step:
     extra: dict[str, str] = field(default_factory=dict)
 
     def done(self) -> bool:
-        return all(p.exists() for p in self.outputs)
+        return all(p.exists() and _finished(p) for p in self.outputs)
+
+
+def _finished(path: Path) -> bool:
+    """False only for a ``summary.json`` that records ``"done": false``."""
+    if path.name != "summary.json":
+        return True
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False  # unreadable or half-written: run the step again (it resumes)
+    return not (isinstance(data, dict) and data.get("done") is False)
 
 
 def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list[str]]]:
