@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from evodevo.neuromod.columns import Column, ProgressiveNet, huber
+from evodevo.neuromod.columns import _EMPTY, Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
 from evodevo.neuromod.flat_params import FlatParams, flatten, flatten_adam_state
@@ -35,8 +35,6 @@ from evodevo.neuromod.shared_net import HeadView, SharedNet
 from evodevo.neuromod.variants import Variant
 
 __all__ = ["BiarmAgent"]
-
-_EMPTY = torch.empty(0)  # "no tensor" for the C++ calls (no module states; untrained ctx_w)
 
 
 class BiarmAgent:

@@ -46,7 +46,7 @@ from evodevo.seeding import torch_gen
 
 __all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals"]
 
-_EMPTY = torch.empty(0)  # "no states" for the C++ features of a single frozen column
+_EMPTY = torch.empty(0)  # "no tensor" for the C++ calls (no module states; untrained ctx_w)
 
 
 def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:

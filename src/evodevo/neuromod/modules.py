@@ -117,7 +117,6 @@ class Neuromodulators(nn.Module):
         n_in, width = d + 3, 2 * h
         self._pack_dims = (n_in, width)
         pack = np.zeros(n_in + 12 + 2 * n_in * width + 4 * width, dtype=np.float32)
-        self._pack = pack
         self._pack_t = torch.from_numpy(pack)
         self._x = pack[:n_in]
         self._x[d] = 1.0
@@ -140,7 +139,6 @@ class Neuromodulators(nn.Module):
         """Run :meth:`step` through the compiled ``module_step`` of ``module`` (the extension
         :func:`evodevo.neuromod.kernels.load` returns), or through NumPy when None."""
         self._kernel = module
-        self._views()
 
     def _views(self) -> None:
         """Per-stage matrices of the per-step update, rebuilt from the parameters.
@@ -178,12 +176,8 @@ class Neuromodulators(nn.Module):
         self._versions = self._param_versions()
 
     def _param_versions(self) -> tuple[int, ...]:
-        # the parameters from a plain attribute: nn.Module's __getattr__ (parameters live in
-        # _parameters) costs about a microsecond each on this per-step path
-        ps = self.__dict__.get("_ptuple")
-        if ps is None or ps[0] is not self._parameters["w1"]:
-            ps = self.__dict__["_ptuple"] = (self.w1, self.b1, self.w2, self.b2)
-        return (ps[0]._version, ps[1]._version, ps[2]._version, ps[3]._version)
+        # the hot loop uses step_function's closure; this is the general path
+        return (self.w1._version, self.b1._version, self.w2._version, self.b2._version)
 
     def refresh(self) -> None:
         """Rebuild the per-step matrices (after an optimiser step on the module networks)."""
