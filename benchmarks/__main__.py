@@ -19,6 +19,7 @@ from typing import Any
 #: module name -> what it measures
 SUITE = {
     "biarm_overhead": "BIARM time per training step / plain PNN's (SPEC §1.3; thesis +52-87 %)",
+    "biarm_floor": "BIARM / PNN parameters, update FLOPs (the method's floor) and our update's time",
     "dqn_throughput": "our DQN training steps/s / Stable-Baselines3 DQN's, same network and schedule",
     "env_speed": "our KukaDiverseObject-v0 episodes/s / the original pybullet_envs class's",
     "grn_step": "share of a Kuka env step spent in the GRN controller (encoder + dynamics)",

@@ -61,7 +61,7 @@ def _measure(batch: int, episodes: int, seed: int) -> dict[str, float]:
                 )
                 timers["ctrl_cpu"] += time.process_time() - c0
                 timers["ctrl_wall"] += time.perf_counter() - w0
-                for j, b in enumerate(idx):
+                for j, b in enumerate(idx.tolist()):
                     c0, w0 = time.process_time(), time.perf_counter()
                     o, _, term, trunc, info = envs[b].step(actions[j].astype(np.float32))
                     timers["env_cpu"] += time.process_time() - c0

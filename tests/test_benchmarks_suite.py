@@ -41,6 +41,10 @@ def test_quick_suite_runs_every_benchmark_in_under_two_minutes():
     assert not [k for k, v in res.items() if "error" in v]
     assert 1.0 < res["biarm_overhead"]["ratio"] < 3.0  # BIARM does more work per step than PNN
     assert res["biarm_overhead"]["ratio_adapter128"] > res["biarm_overhead"]["ratio"]
+    floor = res["biarm_floor"]["per_task"]
+    assert floor["CartPole-v1"]["flops"] == 1.0  # the first column has no laterals: the same net
+    assert floor["CartPole-v1"]["params"] == 1.0
+    assert all(floor[t]["flops"] > 1.0 and floor[t]["params"] > 1.0 for t in list(floor)[1:])
     assert res["dqn_throughput"]["ratio"] > 0
     assert 0.0 < res["grn_step"]["controller_share"] < 1.0
     env = res["env_speed"]

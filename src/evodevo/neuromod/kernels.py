@@ -65,12 +65,15 @@ _error: str | None = None
 
 
 def _build_name() -> str:
-    """Extension name, one per Python environment, torch version and kernel source: two
-    virtualenvs on one machine share torch's build cache, and would otherwise rebuild it for
-    each other; torch only watches ``sources`` for changes, not the headers they include."""
+    """Extension name, one per Python environment, torch version, checkout and kernel source.
+
+    Two virtualenvs or two checkouts (git worktrees) on one machine share torch's build cache:
+    under one name, each would rebuild the extension for the other (the build file names the
+    source's absolute path). Torch only watches ``sources`` for changes, not the headers they
+    include, so their contents are part of the name too."""
     import torch
 
-    h = hashlib.sha1(f"{sys.prefix}|{torch.__version__}".encode())
+    h = hashlib.sha1(f"{sys.prefix}|{torch.__version__}|{SOURCE.resolve()}".encode())
     for p in SOURCES:
         h.update(p.read_bytes())
     return f"evodevo_kernels_{h.hexdigest()[:10]}"
