@@ -31,6 +31,10 @@ def test_rows_pair_each_ablation_with_intact_on_the_same_episodes():
     assert rows[2]["mcnemar_p"] == pytest.approx(1.0)
     assert rows[1]["mcnemar_p_holm"] == pytest.approx(2 * 2 * 0.5**10)
     assert rows[2]["mcnemar_p_holm"] == pytest.approx(1.0)
+    # the discordant episodes are kept, so that several seeds' tables pool paired
+    assert (rows[1]["only_ablated"], rows[1]["only_intact"]) == (0, 10)
+    assert (rows[2]["only_ablated"], rows[2]["only_intact"]) == (10, 10)
+    assert (rows[0]["only_ablated"], rows[0]["only_intact"]) == (0, 0)
     md = ablations_markdown(rows, "test", 10000)
     line = next(m for m in md.splitlines() if m.startswith("| worse |"))
     assert f"| {2 * 0.5**10:.3g} | {4 * 0.5**10:.3g} |" in line

@@ -306,3 +306,27 @@ def test_an_evolution_stopped_mid_way_is_not_done(tmp_path):
     assert step.done()
     summary.write_text(json.dumps({"variant": "biarm"}))  # summaries without the flag: final
     assert step.done()
+
+
+def test_report_pools_the_ablation_tables_of_every_seed(tmp_path):
+    cfg = _fixture(tmp_path)
+    cfg = from_dict(ReproduceConfig, {**to_dict(cfg), "grn": {**to_dict(cfg.grn), "seeds": "0-1"}})
+    g = tmp_path / "grn"
+    (g / "plain_s1").mkdir()
+    rows = {
+        0: [{"ablation": "intact", "successes": 20, "episodes": 40},
+            {"ablation": "no_decay", "successes": 12, "episodes": 40, "mcnemar_p": 0.0078,
+             "only_ablated": 0, "only_intact": 8}],
+        1: [{"ablation": "intact", "successes": 22, "episodes": 40},
+            {"ablation": "no_decay", "successes": 18, "episodes": 40, "mcnemar_p": 0.125,
+             "only_ablated": 0, "only_intact": 4}],
+    }  # fmt: skip
+    for s, r in rows.items():
+        (g / f"plain_s{s}" / "ablations.json").write_text(json.dumps({"rows": r}))
+    md = write_report(tmp_path, cfg).read_text()
+    assert "### Ablations (thesis Section 4.7), plain, seeds 0, 1" in md
+    row = next(line for line in md.splitlines() if line.startswith("| no_decay"))
+    # 30/80 against 42/80; McNemar on 0 vs 12 discordant episodes: 2 * 0.5**12
+    assert "s0: -20.0 (0.0078); s1: -10.0 (0.12)" in row and "| 37.5 % [" in row
+    assert "| -15.0 [" in row and f"{2 * 0.5**12:.3g} (McNemar) | 2 of 2 |" in row
+    assert "[seed 1](grn/plain_s1/ablations.md)" in md

@@ -186,7 +186,15 @@ def _row(
     paired exact McNemar p."""
     r = rate(k, n)
     lo, hi = difference_interval(k, n, k0, n0)
-    paired = {} if succ is None or succ0 is None else {"mcnemar_p": mcnemar_exact(succ, succ0)}
+    paired: dict[str, Any] = {}
+    if succ is not None and succ0 is not None:
+        a, i = np.asarray(succ, bool), np.asarray(succ0, bool)
+        paired = {
+            "mcnemar_p": mcnemar_exact(succ, succ0),
+            # the discordant episodes, so that tables of several seeds can be pooled paired
+            "only_ablated": int(np.sum(a & ~i)),
+            "only_intact": int(np.sum(~a & i)),
+        }
     return {
         "ablation": name,
         "successes": k,

@@ -17,6 +17,11 @@ from pathlib import Path
 from typing import Any
 
 from evodevo.cli.common import parse_seeds
+from evodevo.grn.ablation_pooling import (
+    pool_ablations,
+    pooled_ablations_markdown,
+    read_ablation_tables,
+)
 from evodevo.neuromod.compare import collect
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.budget import ReproduceConfig, preset
@@ -251,20 +256,23 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     lines.append("")
     for c in g.controllers:
         s0 = parse_seeds(g.seeds)[0]
-        ab = gdir / f"{c}_s{s0}" / "ablations.md"
-        if ab.is_file():
+        dirs = {s: gdir / f"{c}_s{s}" for s in parse_seeds(g.seeds)}
+        for name, title in (
+            ("ablations", "Ablations (thesis Section 4.7)"),
+            ("modulator_ablations", "Modulator ablations (SPEC §5: each gamma set to 0)"),
+        ):
+            tables = read_ablation_tables(dirs, f"{name}.json")
+            if not tables:
+                continue
+            links = ", ".join(
+                f"[seed {s}]({(dirs[s] / f'{name}.md').relative_to(out)})" for s in tables
+            )
             lines += [
-                f"### Ablations (thesis Section 4.7), {c} seed {s0}",
+                f"### {title}, {c}, seeds {', '.join(map(str, tables))}",
                 "",
-                ab.read_text().strip(),
+                pooled_ablations_markdown(pool_ablations(tables)).strip(),
                 "",
-            ]
-        mab = gdir / f"{c}_s{s0}" / "modulator_ablations.md"
-        if mab.is_file():
-            lines += [
-                f"### Modulator ablations (SPEC §5: each gamma set to 0), {c} seed {s0}",
-                "",
-                _drop_heading(mab.read_text()),
+                f"Each seed's own table (with Fisher and Holm-adjusted McNemar p): {links}.",
                 "",
             ]
         figs = sorted((gdir / f"{c}_s{s0}" / "figures").glob("*.png"))
