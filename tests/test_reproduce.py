@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -330,3 +331,23 @@ def test_report_pools_the_ablation_tables_of_every_seed(tmp_path):
     assert "s0: -20.0 (0.0078); s1: -10.0 (0.12)" in row and "| 37.5 % [" in row
     assert "| -15.0 [" in row and f"{2 * 0.5**12:.3g} (McNemar) | 2 of 2 |" in row
     assert "[seed 1](grn/plain_s1/ablations.md)" in md
+
+
+def test_report_pairs_the_neuromodulated_grn_with_the_plain_one(tmp_path):
+    cfg = _fixture(tmp_path)
+    grn_cfg = {**to_dict(cfg.grn), "controllers": ["plain", "neuromodulated"]}
+    cfg = from_dict(ReproduceConfig, {**to_dict(cfg), "grn": grn_cfg})
+    g = tmp_path / "grn"
+    (g / "neuromodulated_s0").mkdir()
+    # plain wins episodes 0-31; neuromodulated 0-29 and 32-39: 2 vs 8 discordant
+    _episodes_csv(g / "plain_s0" / "eval_test_0.03_episodes.csv", {"genome": [1] * 32 + [0] * 8})
+    _episodes_csv(
+        g / "neuromodulated_s0" / "eval_test_0.03_episodes.csv",
+        {"genome": [1] * 30 + [0] * 2 + [1] * 8},
+    )
+    md = write_report(tmp_path, cfg).read_text()
+    assert "### neuromodulated vs plain GRN, paired on the same test episodes" in md
+    row = next(line for line in md.splitlines() if line.startswith("| 0 | 80.0 % ["))
+    p = 2 * sum(math.comb(10, i) for i in range(3)) / 2**10  # exact McNemar, 2 vs 8
+    assert "| 95.0 % [" in row and f"+15.0 (p = {p:.2g})" in row
+    assert "| pooled | 80.0 % [" in md and f"+15.0 (p = {p:.2g}, discordant" in md

@@ -26,7 +26,7 @@ from evodevo.neuromod.compare import collect
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.budget import ReproduceConfig, preset
 from evodevo.runs import atomic_write_text, machine_info
-from evodevo.stats import fisher_exact, mcnemar_exact, rate
+from evodevo.stats import fisher_exact, mcnemar_exact, mcnemar_exact_counts, rate
 
 __all__ = [
     "write_report",
@@ -180,6 +180,7 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         f"{100 * THESIS_GRN['success']:.1f} % (n=40) | — | — |",
         "",
     ]
+    lines += _controllers_paired(gdir, g.controllers, parse_seeds(g.seeds))
     # Pooled comparison with the blind controls and the trivial policies; per seed, the GRN and
     # each control are paired on the same test episodes (exact McNemar).
     kc, nc = _pooled(tests, "clean") if "clean" in tests[0] else _pooled(tests)
@@ -406,6 +407,47 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
         f"and {below} significantly worse (McNemar p < 0.05, uncorrected).",
         "",
     ]
+
+
+def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) -> list[str]:
+    """Each further controller against the first (e.g. neuromodulated vs plain GRN), per seed
+    on the same clean test episodes (exact McNemar), and pooled over the seeds."""
+    if len(controllers) < 2:
+        return []
+    first = controllers[0]
+    out: list[str] = []
+    for other in controllers[1:]:
+        rows, ka, kb, n, only_a, only_b = [], 0, 0, 0, 0, 0
+        for s in seeds:
+            a = _successes(gdir / f"{other}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
+            b = _successes(gdir / f"{first}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
+            pair = _paired(a, b)
+            if pair is None or a is None or b is None:
+                continue
+            ka, kb, n = ka + sum(a), kb + sum(b), n + len(a)
+            only_a += sum(x > y for x, y in zip(a, b, strict=True))
+            only_b += sum(y > x for x, y in zip(a, b, strict=True))
+            rows.append(
+                f"| {s} | {rate(sum(b), len(b)).fmt()} | {rate(sum(a), len(a)).fmt()} | "
+                f"{_fmt_pair(pair)} |"
+            )
+        if not rows:
+            continue
+        out += [
+            f"### {other} vs {first} GRN, paired on the same test episodes",
+            "",
+            f"Clean test-object episodes; the last column is {other} − {first} in points with "
+            "the exact McNemar p of that seed's episodes.",
+            "",
+            f"| seed | {first} | {other} | difference (McNemar p) |",
+            "|---|---|---|---|",
+            *rows,
+            f"| pooled | {rate(kb, n).fmt()} | {rate(ka, n).fmt()} | "
+            f"{100 * (ka - kb) / n:+.1f} (p = {mcnemar_exact_counts(only_a, only_b):.2g}, "
+            "discordant episodes summed over seeds) |",
+            "",
+        ]
+    return out
 
 
 def _paired(a: list[int] | None, b: list[int] | None) -> tuple[float, float] | None:
