@@ -351,3 +351,26 @@ def test_report_pairs_the_neuromodulated_grn_with_the_plain_one(tmp_path):
     p = 2 * sum(math.comb(10, i) for i in range(3)) / 2**10  # exact McNemar, 2 vs 8
     assert "| 95.0 % [" in row and f"+15.0 (p = {p:.2g})" in row
     assert "| pooled | 80.0 % [" in md and f"+15.0 (p = {p:.2g}, discordant" in md
+
+
+def test_report_names_the_finished_biarm_runs_when_they_differ_from_the_budget(tmp_path):
+    cfg = from_dict(
+        ReproduceConfig,
+        {
+            "name": "fixture",
+            "biarm": {"seeds": "0", "variants": ["biarm"]},
+            "grn": {"enabled": False},
+            "kuka": {"enabled": False},
+        },
+    )
+    bdir = tmp_path / "biarm"
+    task = {"env_id": "CartPole-v1", "episodes": 1, "initial_return": 9.0, "final_return": 9.0,
+            "retention": 1.0, "us_per_step": 1.0}  # fmt: skip
+    for seed in (0, 3):
+        run = bdir / "runs" / f"biarm__s{seed}"
+        run.mkdir(parents=True)
+        summary = {"variant": "biarm", "seed": seed, "tasks": [task]}
+        (run / "summary.json").write_text(json.dumps(summary))
+    (bdir / "table_3_2.md").write_text("## Table 3.2\n\n| x |\n|---|\n| 1 |\n")
+    md = write_report(tmp_path, cfg).read_text()
+    assert "Finished runs: biarm [0, 3]." in md

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from evodevo.cli.common import parse_seeds
+from evodevo.errors import EvodevoError
 from evodevo.grn.ablation_pooling import (
     pool_ablations,
     pooled_ablations_markdown,
@@ -103,6 +104,18 @@ def biarm_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "with fixed seeds. Thesis numbers are in their own column.",
         "",
     ]
+    try:
+        runs = collect(bdir)
+    except EvodevoError:  # no finished run (yet)
+        runs = {}
+    budget_seeds = parse_seeds(b.seeds)
+    if any(sorted(seeds) != budget_seeds for seeds in runs.values()):
+        per = "; ".join(f"{v} {sorted(seeds)}" for v, seeds in sorted(runs.items()))
+        lines += [
+            f"The tables use every finished run, which differs from the budget's seeds {b.seeds} "
+            f"for some variants. Finished runs: {per}.",
+            "",
+        ]
     titles = {
         "table_3_2": "Table 3.2: final return, PNN vs BIARM",
         "table_3_3": "Table 3.3: time per training step",
@@ -120,7 +133,7 @@ def biarm_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         lines += ["(no BIARM tables: the BIARM part was not run or did not finish)", ""]
         return lines
     lines += ["### Where we differ and why", ""]
-    lines += biarm_differences(collect(bdir), b.episodes_scale)
+    lines += biarm_differences(runs or collect(bdir), b.episodes_scale)
     figs = sorted(bdir.glob("*.png"))
     if figs:
         lines += ["### Figures", ""] + [f"![{f.stem}]({f.relative_to(out)})" for f in figs] + [""]
