@@ -258,23 +258,50 @@ def test_kuka_runs_are_paired_with_trivial_policies_and_the_grn(tmp_path):
     (run / "repro_test_clean.json").write_text(json.dumps(_rate(20, 40) | {"episodes": 40}))
     (run / "summary.json").write_text(json.dumps({"env_steps": 1234}))
     (run / "config.json").write_text(json.dumps({"config": {"seed": 0, "method": "ppo"}}))
+    (run / "learning_curve.csv").write_text(
+        "env_steps,train_s,success,mean_reward,episodes\n"
+        "1000,1.0,0.3,0.3,10\n2000,2.0,0.7,0.7,10\n3000,3.0,0.2,0.2,10\n"
+    )
     lines = kuka_paired(tmp_path, cfg, [run])
     row = next(line for line in lines if line.startswith("| ppo |"))
     cells = [c.strip() for c in row.strip("|").split("|")]
-    assert cells[:3] == ["ppo", "0", "1234"] and cells[3].startswith("50.0 % [")
-    assert cells[4] == "+20.0 (p = 0.0078)"  # 2 * 0.5**8
-    assert cells[5] == f"+25.0 (p = {2 * 0.5**10:.2g})"  # random: 10 vs 0 discordant
+    assert cells[:4] == ["ppo", "0", "1234", "0.70 / 0.20"] and cells[4].startswith("50.0 % [")
+    assert cells[5] == "+20.0 (p = 0.0078)"  # 2 * 0.5**8
+    assert cells[6] == f"+25.0 (p = {2 * 0.5**10:.2g})"  # random: 10 vs 0 discordant
     # turn wins 8..39, PPO 0..19: PPO-only 0..7 (8), turn-only 20..39 (20)
     from scipy.stats import binomtest
 
     p_turn = binomtest(8, 28, 0.5).pvalue
-    assert cells[6] == f"-30.0 (p = {p_turn:.2g})"
-    assert cells[7] == f"-30.0 (p = {2 * 0.5**12:.2g})"
+    assert cells[7] == f"-30.0 (p = {p_turn:.2g})"
+    assert cells[8] == f"-30.0 (p = {2 * 0.5**12:.2g})"
+    # best 0.70, last 0.20: the fall of 0.5 is named under the table
+    assert "Training success fell by 0.3 or more" in "\n".join(lines)
+    assert "ppo seed 0 (0.70 → 0.20)" in "\n".join(lines)
     assert "all-zero actions 30.0 % [" in lines[0]
     assert (
         "Against the constant turn, 0 of 1 runs are significantly better and 1 significantly worse"
         in "\n".join(lines)
     )
+
+
+def test_unfinished_kuka_runs_are_named_with_their_progress(tmp_path):
+    """A budget's baseline run without a summary is listed as in progress (env steps reached of
+    its budget) or not started; a tested run is not listed."""
+    from evodevo.reproduce.report import _unfinished
+
+    kuka = tmp_path / "kuka"
+    done, going, absent = kuka / "ppo_x5_s0", kuka / "ppo_x5_s1", kuka / "td3_x5_s0"
+    done.mkdir(parents=True)
+    going.mkdir()
+    (going / "config.json").write_text(json.dumps({"config": {"budget": {"env_steps": 43560}}}))
+    (going / "learning_curve.csv").write_text(
+        "env_steps,train_s,success,mean_reward,episodes\n1000,1.0,0.3,0.3,10\n35000,9.0,0.1,0.1,10\n"
+    )
+    line = _unfinished([done, going, absent], [done])
+    assert len(line) == 1
+    assert "`ppo_x5_s1` (in progress: 35,000 of 43,560 env steps)" in line[0]
+    assert "`td3_x5_s0` (not started)" in line[0] and "ppo_x5_s0`" not in line[0]
+    assert _unfinished([done], [done]) == []
 
 
 def test_coverage_lists_what_a_budget_leaves_out():

@@ -330,11 +330,15 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
             except EvodevoError:
                 continue
             tested.append(d)
+        pending = _unfinished([d for d in dirs if Path(d).parent.name == "kuka"], tested)
         if not any(Path(d).parent.name == "kuka" for d in tested):
+            if pending:
+                lines += [f"### Budget {scale:g}× the GRN's environment steps", "", *pending, ""]
             continue
         table, runs = write_table(tested, out / "kuka" / f"table_x{scale:g}")
         title = f"### Budget {scale:g}× the GRN's environment steps"
         lines += [markdown(table, runs, 0.5, title=title), ""]
+        lines += [*pending, ""] if pending else []
         lines += kuka_paired(out, cfg, [Path(d) for d in tested if Path(d).parent.name == "kuka"])
         lines += [f"#### Where we differ and why ({scale:g}×)", ""]
         for r in table:
@@ -363,6 +367,44 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     return lines
 
 
+def _curve(d: Path) -> list[tuple[int, float]]:
+    """(env steps, training-time success) rows of a baseline run's ``learning_curve.csv``."""
+    path = d / "learning_curve.csv"
+    if not path.is_file():
+        return []
+    with path.open(newline="") as f:
+        return [(int(float(r["env_steps"])), float(r["success"])) for r in csv.DictReader(f)]
+
+
+def _unfinished(expected: list[Path], tested: list[str | Path]) -> list[str]:
+    """One line naming the budget's baseline runs that are not in the table, with their progress.
+
+    A run without a tested ``summary.json`` is either in progress (its learning curve shows the
+    env steps reached, against the budget in its ``config.json``) or not started.
+    """
+    done = {Path(d) for d in tested}
+    parts = []
+    for d in expected:
+        if d in done:
+            continue
+        budget = ((_load(d / "config.json") or {}).get("config", {}).get("budget") or {}).get(
+            "env_steps"
+        )
+        rows = _curve(d)
+        if rows:
+            of = f" of {int(budget):,}" if budget else ""
+            parts.append(f"`{d.name}` (in progress: {rows[-1][0]:,}{of} env steps)")
+        else:
+            parts.append(f"`{d.name}` (not started)")
+    if not parts:
+        return []
+    return [
+        "Not in this table because they have not finished (their checkpoints resume them): "
+        + ", ".join(parts)
+        + "."
+    ]
+
+
 def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[str]:
     """Each tested baseline run against the trivial policies and the GRN on the same episodes.
 
@@ -375,6 +417,7 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
     triv = {n: _successes(gdir / "baselines_test_episodes.csv", n) for n in TRIVIAL_TITLES}
     rows = []
     turn_cells: list[tuple[float, float]] = []
+    fell: list[str] = []
     for d in run_dirs:
         res = _load(d / "repro_test_clean.json")
         ep = _successes(d / "eval_test_0_episodes.csv", "genome")
@@ -391,8 +434,14 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
         turn = pairs.get("turn")
         if turn is not None:
             turn_cells.append(turn)
+        curve = [s for _, s in _curve(d)]
+        train = f"{max(curve):.2f} / {curve[-1]:.2f}" if curve else "—"
+        if curve and max(curve) - curve[-1] >= 0.3:
+            fell.append(
+                f"{conf.get('method', d.name)} seed {seed} ({max(curve):.2f} → {curve[-1]:.2f})"
+            )
         rows.append(
-            f"| {conf.get('method', d.name)} | {seed} | {summ.get('env_steps', '?')} | "
+            f"| {conf.get('method', d.name)} | {seed} | {summ.get('env_steps', '?')} | {train} | "
             f"{_pct(res)} | " + " | ".join(cells) + " |"
         )
     if not rows:
@@ -408,16 +457,30 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
     return [
         "Paired on the same test episodes: the run's success minus the policy's, in points "
         "(exact McNemar p, uncorrected). GRN: the plain GRN of the same seed, whose env steps set "
-        "the budget. Trivial policies on these episodes: " + "; ".join(rates) + ".",
+        "the budget. Training success: the training-object success of the run's periodic "
+        "evaluations (PPO, TD3) or best genome per generation (NEAT), best and last. Trivial "
+        "policies on these episodes: " + "; ".join(rates) + ".",
         "",
-        f"| run | seed | env steps | success [95 % CI] | {heads} | − GRN same seed |",
-        "|---|---|---|---|" + "---|" * (len(TRIVIAL_TITLES) + 1),
+        f"| run | seed | env steps | training success best / last | success [95 % CI] | {heads} "
+        "| − GRN same seed |",
+        "|---|---|---|---|---|" + "---|" * (len(TRIVIAL_TITLES) + 1),
         *rows,
         "",
         f"Against the constant turn, {above} of {len(turn_cells)} runs are significantly better "
         f"and {below} significantly worse (McNemar p < 0.05, uncorrected).",
         "",
-    ]
+    ] + (
+        [
+            "Training success fell by 0.3 or more from its best to its last evaluation in "
+            + ", ".join(fell)
+            + ". The tested policy is the last one (PPO, TD3: the final model; NEAT: the last "
+            "generation's best genome; no checkpoint is selected), so longer training can test "
+            "worse.",
+            "",
+        ]
+        if fell
+        else []
+    )
 
 
 def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) -> list[str]:
