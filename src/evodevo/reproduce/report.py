@@ -354,7 +354,7 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
             )
         lines += [
             "- The thesis gave its baselines other budgets than its GRN (its Table 4.1); here every "
-            "baseline gets its seed's GRN env steps, so the training times measure the methods' "
+            f"baseline gets its seed's GRN env steps (× {scale:g}), so the training times measure the methods' "
             "cost per env step on this machine, not a budget choice.",
             "",
         ]
@@ -473,7 +473,8 @@ def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[s
         [
             "Training success fell by 0.3 or more from its best to its last evaluation in "
             + ", ".join(fell)
-            + ". The tested policy is the last one (PPO, TD3: the final model; NEAT: the last "
+            + " (each evaluation is a few training-object episodes, 10 for PPO and TD3, so one "
+            "value is uncertain by about ±0.3; the test column is the measurement). The tested policy is the last one (PPO, TD3: the final model; NEAT: the last "
             "generation's best genome; no checkpoint is selected), so longer training can test "
             "worse.",
             "",
