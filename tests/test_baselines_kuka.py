@@ -238,9 +238,13 @@ def test_killed_neat_run_resumes_at_its_next_generation(tmp_path, tiny, monkeypa
         runner.invoke(app, args, catch_exceptions=False)
     monkeypatch.setattr(neat_kuka.RunReporter, "end_generation", original)
     assert json.loads((out / "checkpoints" / "neat_state.json").read_text())["generation"] == 1
+    # the per-generation summary of the killed run says it is not finished (reproduce resumes it)
+    killed = _summary(out)
+    assert killed["done"] is False and killed["stopped_by"] == "running"
     invoke("kuka", "--method", "neat", "--out", out, "--resume", "--quiet")
     s = _summary(out)
     assert s["generations_run"] == 2 and s["episodes_run"] == 4
+    assert s["done"] is True and s["stopped_by"] == "generations"
     hist = (out / "history.csv").read_text().splitlines()[1:]
     assert [int(r.split(",")[0]) for r in hist] == [0, 1]
 

@@ -334,6 +334,11 @@ def test_an_evolution_stopped_mid_way_is_not_done(tmp_path):
     assert step.done()
     summary.write_text(json.dumps({"variant": "biarm"}))  # summaries without the flag: final
     assert step.done()
+    # a NEAT baseline's per-generation summary from before the flag existed
+    summary.write_text(json.dumps({"method": "neat", "stopped_by": "running"}))
+    assert not step.done()
+    summary.write_text(json.dumps({"method": "neat", "stopped_by": "steps"}))
+    assert step.done()
 
 
 def test_report_pools_the_ablation_tables_of_every_seed(tmp_path):

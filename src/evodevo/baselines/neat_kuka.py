@@ -241,9 +241,15 @@ def curve_rows(history: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def neat_summary(cfg: KukaBaselineConfig, state: NeatState) -> dict[str, Any]:
-    """``summary.json`` of a NEAT run."""
+    """``summary.json`` of a NEAT run (written after every generation).
+
+    ``"done": false`` and ``"stopped_by": "running"`` until the budget is spent, so a run
+    killed mid-way is resumed by ``evodevo reproduce``, not taken as finished.
+    """
     out = summarise(cfg, state.env_steps, state.train_s, 0.0, curve_rows(state.history), "")
-    out["stopped_by"] = _stop_reason(cfg, state) or "running"
+    reason = _stop_reason(cfg, state)
+    out["stopped_by"] = reason or "running"
+    out["done"] = reason is not None
     out["generations_run"] = state.generation
     out["episodes_run"] = state.episodes
     out["budget"]["generations"] = cfg.neat.generations

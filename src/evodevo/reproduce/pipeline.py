@@ -43,14 +43,17 @@ class Step:
 
 
 def _finished(path: Path) -> bool:
-    """False only for a ``summary.json`` that records ``"done": false``."""
+    """False only for a ``summary.json`` that records ``"done": false`` (or, as NEAT runs
+    before the flag was added, ``"stopped_by": "running"``)."""
     if path.name != "summary.json":
         return True
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
         return False  # unreadable or half-written: run the step again (it resumes)
-    return not (isinstance(data, dict) and data.get("done") is False)
+    if not isinstance(data, dict):
+        return True
+    return data.get("done") is not False and data.get("stopped_by") != "running"
 
 
 def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list[str]]]:
