@@ -39,10 +39,10 @@ class Step:
     extra: dict[str, str] = field(default_factory=dict)
 
     def done(self) -> bool:
-        return all(p.exists() and _finished(p) for p in self.outputs)
+        return all(p.exists() and finished(p) for p in self.outputs)
 
 
-def _finished(path: Path) -> bool:
+def finished(path: Path) -> bool:
     """False only for a ``summary.json`` that records ``"done": false`` (or, as NEAT runs
     before the flag was added, ``"stopped_by": "running"``)."""
     if path.name != "summary.json":

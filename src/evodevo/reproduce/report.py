@@ -301,7 +301,7 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     """Thesis Table 4.2 per budget scale: every tested GRN run beside every tested baseline."""
     from evodevo.baselines.table_4_2 import markdown, read_run, write_table
     from evodevo.errors import EvodevoError
-    from evodevo.reproduce.pipeline import kuka_run_dir
+    from evodevo.reproduce.pipeline import finished, kuka_run_dir
 
     k, g = cfg.kuka, cfg.grn
     grn_dirs = sorted(p for p in (out / "grn").glob("*_s*") if p.is_dir())
@@ -323,8 +323,8 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         dirs += [kuka_run_dir(out, m, scale, s) for m in k.methods for s in parse_seeds(k.seeds)]
         tested: list[str | Path] = []
         for d in dirs:
-            if not (d / "summary.json").is_file():
-                continue
+            if not (d / "summary.json").is_file() or not finished(d / "summary.json"):
+                continue  # not started, or (NEAT) still evolving: listed as unfinished below
             try:
                 read_run(d)
             except EvodevoError:
