@@ -406,3 +406,22 @@ def test_report_names_the_finished_biarm_runs_when_they_differ_from_the_budget(t
     (bdir / "table_3_2.md").write_text("## Table 3.2\n\n| x |\n|---|\n| 1 |\n")
     md = write_report(tmp_path, cfg).read_text()
     assert "Finished runs: biarm [0, 3]." in md
+
+
+def test_only_selects_steps_by_name_pattern(tmp_path):
+    """``reproduce --only``: shell patterns (repeatable, comma-separated) pick steps by name; a
+    pattern matching nothing is an error that lists the budget's step names."""
+    from evodevo.reproduce.pipeline import select
+
+    steps = plan(preset("thesis"), tmp_path)
+    assert select(steps, None) == steps
+    chosen = [s.name for s in select(steps, ["kuka-*-td3-x5-s0"])]
+    assert chosen == ["kuka-train-td3-x5-s0", "kuka-evaluate-td3-x5-s0"]
+    both = [s.name for s in select(steps, ["kuka-train-td3-x5-s0, kuka-train-neat-x5-s1"])]
+    order = [s.name for s in steps]
+    assert set(both) == {"kuka-train-td3-x5-s0", "kuka-train-neat-x5-s1"}
+    assert both == sorted(both, key=order.index)  # in the budget's order, not the patterns'
+    with pytest.raises(
+        EvodevoError, match=r"--only 'kuka-x' matches no step.*kuka-train-ppo-x1-s0"
+    ):
+        select(steps, ["kuka-x"])

@@ -20,6 +20,12 @@ def reproduce(
     report_only: bool = typer.Option(
         False, "--report-only", help="Only rewrite the report from saved runs."
     ),
+    only: list[str] | None = typer.Option(
+        None,
+        "--only",
+        help="Run only the steps whose names match these patterns (repeatable or comma-"
+        "separated, e.g. 'kuka-*-td3-x5-s0'); the report still covers the whole budget.",
+    ),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
     from evodevo.parallel import set_single_thread
@@ -27,5 +33,11 @@ def reproduce(
 
     set_single_thread()
     run_reproduce(
-        budget=budget, out=out, seed=seed, workers=workers, config=config, report_only=report_only
+        budget=budget,
+        out=out,
+        seed=seed,
+        workers=workers,
+        config=config,
+        report_only=report_only,
+        only=only,
     )

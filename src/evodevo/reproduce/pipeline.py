@@ -8,6 +8,7 @@ checkpoints (``--resume``). Each step's output goes to the console and to ``OUT/
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import subprocess
 import sys
@@ -329,6 +330,20 @@ def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:
         atomic_write_text(step.capture_json, last + "\n")
 
 
+def select(steps: list[Step], only: list[str] | None) -> list[Step]:
+    """The steps whose name matches one of the ``only`` patterns (all steps if none given)."""
+    if not only:
+        return steps
+    patterns = [p.strip() for item in only for p in item.split(",") if p.strip()]
+    chosen = [s for s in steps if any(fnmatch.fnmatchcase(s.name, p) for p in patterns)]
+    if not chosen:
+        names = ", ".join(s.name for s in steps)
+        raise EvodevoError(
+            f"--only {','.join(patterns)!r} matches no step of this budget; its steps are: {names}"
+        )
+    return chosen
+
+
 def run_reproduce(
     budget: str = "quick",
     out: Path = Path("runs/quick"),
@@ -336,8 +351,14 @@ def run_reproduce(
     workers: int | None = None,
     config: Path | None = None,
     report_only: bool = False,
+    only: list[str] | None = None,
 ) -> Path:
-    """Run (or resume) every step of ``budget`` into ``out`` and write the report; return its path."""
+    """Run (or resume) every step of ``budget`` into ``out`` and write the report; return its path.
+
+    ``only``: shell-style patterns of step names (e.g. ``kuka-*-td3-x5-s0``); the other steps
+    are left as they are, and the report still covers the whole budget (its unfinished parts
+    listed), so several selections can run side by side into one folder.
+    """
     from evodevo.reproduce.report import write_report
 
     if budget not in PRESETS:
@@ -360,7 +381,7 @@ def run_reproduce(
         cfg.biarm.seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.biarm.seeds))
     run = RunDir(out)
     run.write_config(to_dict(cfg), kind="reproduce")
-    steps = [] if report_only else plan(cfg, out)
+    steps = [] if report_only else select(plan(cfg, out), only)
     t0 = time.perf_counter()
     for i, step in enumerate(steps, 1):
         if step.done():
