@@ -425,3 +425,30 @@ def test_only_selects_steps_by_name_pattern(tmp_path):
         EvodevoError, match=r"--only 'kuka-x' matches no step.*kuka-train-ppo-x1-s0"
     ):
         select(steps, ["kuka-x"])
+
+
+def test_step_status_done_in_progress_to_do(tmp_path):
+    """``reproduce --plan`` labels: to do (nothing there), in progress (a checkpoint or an
+    unfinished summary: it resumes), done (every output, none unfinished)."""
+    from evodevo.reproduce.pipeline import status
+
+    run = tmp_path / "run"
+    step = Step("kuka-train-x", ["baselines", "kuka"], [run / "summary.json"], resume_if=run / "ck")
+    assert status(step) == "to do"
+    (run / "ck").mkdir(parents=True)
+    assert status(step) == "to do"  # an empty checkpoint folder is not a start
+    (run / "ck" / "state.json").write_text("{}")
+    assert status(step) == "in progress"
+    (run / "summary.json").write_text(json.dumps({"stopped_by": "running"}))
+    assert status(step) == "in progress"
+    (run / "summary.json").write_text(json.dumps({"stopped_by": "steps"}))
+    assert status(step) == "done"
+
+
+def test_plan_lists_steps_and_runs_nothing(tmp_path, capsys):
+    from evodevo.reproduce.pipeline import run_reproduce
+
+    run_reproduce("quick", tmp_path / "out", show_plan=True, only=["kuka-*-ppo-*"])
+    lines = capsys.readouterr().out.splitlines()
+    assert lines and all(": to do" in line and "ppo" in line for line in lines)
+    assert not (tmp_path / "out").exists()  # not even config.json

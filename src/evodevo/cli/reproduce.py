@@ -26,6 +26,11 @@ def reproduce(
         help="Run only the steps whose names match these patterns (repeatable or comma-"
         "separated, e.g. 'kuka-*-td3-x5-s0'); the report still covers the whole budget.",
     ),
+    show_plan: bool = typer.Option(
+        False,
+        "--plan",
+        help="List the steps with their status (done, in progress, to do); run none.",
+    ),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
     from evodevo.parallel import set_single_thread
@@ -40,4 +45,5 @@ def reproduce(
         config=config,
         report_only=report_only,
         only=only,
+        show_plan=show_plan,
     )

@@ -297,6 +297,17 @@ def _started(marker: Path) -> bool:
     return marker.exists()
 
 
+def status(step: Step) -> str:
+    """``done``, ``in progress`` (started: it resumes) or ``to do``."""
+    if step.done():
+        return "done"
+    if step.resume_if is not None and _started(step.resume_if):
+        return "in progress"
+    if any(p.exists() for p in step.outputs):
+        return "in progress"
+    return "to do"
+
+
 def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:
     """Run one step as ``python -m evodevo ...``; raise EvodevoError if it fails."""
     argv = list(step.argv)
@@ -352,12 +363,14 @@ def run_reproduce(
     config: Path | None = None,
     report_only: bool = False,
     only: list[str] | None = None,
+    show_plan: bool = False,
 ) -> Path:
     """Run (or resume) every step of ``budget`` into ``out`` and write the report; return its path.
 
     ``only``: shell-style patterns of step names (e.g. ``kuka-*-td3-x5-s0``); the other steps
     are left as they are, and the report still covers the whole budget (its unfinished parts
-    listed), so several selections can run side by side into one folder.
+    listed), so several selections can run side by side into one folder. ``show_plan``: print
+    each (selected) step with its status and return without running anything.
     """
     from evodevo.reproduce.report import write_report
 
@@ -379,6 +392,11 @@ def run_reproduce(
         cfg.grn.seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.grn.seeds))
         cfg.grn.control_seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.grn.control_seeds))
         cfg.biarm.seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.biarm.seeds))
+    if show_plan:
+        chosen = select(plan(cfg, out), only)
+        for i, step in enumerate(chosen, 1):
+            print(f"[{i}/{len(chosen)}] {step.name}: {status(step)}", flush=True)
+        return out / "report.md"
     run = RunDir(out)
     run.write_config(to_dict(cfg), kind="reproduce")
     steps = [] if report_only else select(plan(cfg, out), only)
