@@ -242,7 +242,7 @@ def test_report_pairs_controls_on_the_same_episodes(tmp_path):
 
 def test_kuka_runs_are_paired_with_trivial_policies_and_the_grn(tmp_path):
     """Each baseline run: points over each trivial policy and the same-seed GRN, McNemar p."""
-    from evodevo.reproduce.report import kuka_paired
+    from evodevo.reproduce.kuka_report import kuka_paired
 
     cfg = _fixture(tmp_path)
     g = tmp_path / "grn"
@@ -287,7 +287,7 @@ def test_kuka_runs_are_paired_with_trivial_policies_and_the_grn(tmp_path):
 def test_unfinished_kuka_runs_are_named_with_their_progress(tmp_path):
     """A budget's baseline run without a summary is listed as in progress (env steps reached of
     its budget) or not started; a tested run is not listed."""
-    from evodevo.reproduce.report import _unfinished
+    from evodevo.reproduce.kuka_report import unfinished_runs
 
     kuka = tmp_path / "kuka"
     done, going, absent = kuka / "ppo_x5_s0", kuka / "ppo_x5_s1", kuka / "td3_x5_s0"
@@ -297,11 +297,11 @@ def test_unfinished_kuka_runs_are_named_with_their_progress(tmp_path):
     (going / "learning_curve.csv").write_text(
         "env_steps,train_s,success,mean_reward,episodes\n1000,1.0,0.3,0.3,10\n35000,9.0,0.1,0.1,10\n"
     )
-    line = _unfinished([done, going, absent], [done])
+    line = unfinished_runs([done, going, absent], [done])
     assert len(line) == 1
     assert "`ppo_x5_s1` (in progress: 35,000 of 43,560 env steps)" in line[0]
     assert "`td3_x5_s0` (not started)" in line[0] and "ppo_x5_s0`" not in line[0]
-    assert _unfinished([done], [done]) == []
+    assert unfinished_runs([done], [done]) == []
 
 
 def test_coverage_lists_what_a_budget_leaves_out():

@@ -301,11 +301,8 @@ def status(step: Step) -> str:
     """``done``, ``in progress`` (started: it resumes) or ``to do``."""
     if step.done():
         return "done"
-    if step.resume_if is not None and _started(step.resume_if):
-        return "in progress"
-    if any(p.exists() for p in step.outputs):
-        return "in progress"
-    return "to do"
+    started = step.resume_if is not None and _started(step.resume_if)
+    return "in progress" if started or any(p.exists() for p in step.outputs) else "to do"
 
 
 def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:

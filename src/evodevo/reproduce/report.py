@@ -7,9 +7,7 @@ the table, not written in advance.
 
 from __future__ import annotations
 
-import csv
 import datetime as dt
-import json
 from pathlib import Path
 from typing import Any
 
@@ -24,14 +22,15 @@ from evodevo.neuromod.compare import collect
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.budget import ReproduceConfig, preset
 from evodevo.reproduce.html_report import markdown_to_html
+from evodevo.reproduce.kuka_report import kuka_section
+from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
 from evodevo.runs import atomic_write_text, machine_info
-from evodevo.stats import fisher_exact, mcnemar_exact, mcnemar_exact_counts, rate
+from evodevo.stats import fisher_exact, mcnemar_exact_counts, rate
 
 __all__ = [
     "write_report",
     "grn_section",
     "biarm_section",
-    "kuka_paired",
     "coverage",
     "markdown_to_html",
     "THESIS_GRN",
@@ -46,38 +45,6 @@ THESIS_GRN = {
     "episodes": 40,
     "train_min": 6.5,
 }
-
-
-def _load(path: Path) -> dict[str, Any] | None:
-    try:
-        return dict(json.loads(path.read_text()))
-    except (OSError, json.JSONDecodeError):
-        return None
-
-
-#: The trivial policies of SPEC §2.5 as the report names them.
-TRIVIAL_TITLES = {
-    "zero": "all-zero actions",
-    "random": "uniform-random actions",
-    "turn": "constant turn (dx = dy = 0, d-angle = −1)",
-}
-
-
-def _successes(path: Path, policy: str) -> list[int] | None:
-    """Per-episode successes of ``policy`` in an ``*_episodes.csv`` file, in episode order."""
-    try:
-        with path.open() as fh:
-            rows = [r for r in csv.DictReader(fh) if r["policy"] == policy]
-    except (OSError, KeyError):
-        return None
-    if not rows:
-        return None
-    rows.sort(key=lambda r: int(r["episode"]))
-    return [int(r["success"]) for r in rows]
-
-
-def _pct(r: dict[str, Any]) -> str:
-    return f"{100 * r['success_rate']:.1f} % [{100 * r['ci_low']:.1f}, {100 * r['ci_high']:.1f}]"
 
 
 def _pooled(results: list[dict[str, Any]], key: str | None = None) -> tuple[int, int]:
@@ -165,9 +132,9 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     for c in g.controllers:
         for s in parse_seeds(g.seeds):
             rdir = gdir / f"{c}_s{s}"
-            t = _load(rdir / "repro_test_noisy.json")
-            tr = _load(rdir / "repro_train_clean.json")
-            summ = _load(rdir / "summary.json") or {}
+            t = load_json(rdir / "repro_test_noisy.json")
+            tr = load_json(rdir / "repro_train_clean.json")
+            summ = load_json(rdir / "summary.json") or {}
             if t is None:
                 continue
             tests.append(t)
@@ -175,9 +142,9 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
             zero = t["baselines"].get("zero")
             rnd = t["baselines"].get("random")
             main_rows.append(
-                f"| {c} | {s} | {summ.get('generations_run', '?')} | {_pct(clean)} | {_pct(t)} | "
-                f"{(t.get('retention') or 0) * 100:.1f} % | {_pct(tr) if tr else 'n/a'} | "
-                f"{_pct(zero) if zero else 'n/a'} | {_pct(rnd) if rnd else 'n/a'} |"
+                f"| {c} | {s} | {summ.get('generations_run', '?')} | {pct(clean)} | {pct(t)} | "
+                f"{(t.get('retention') or 0) * 100:.1f} % | {pct(tr) if tr else 'n/a'} | "
+                f"{pct(zero) if zero else 'n/a'} | {pct(rnd) if rnd else 'n/a'} |"
             )
     if not main_rows:
         return lines + ["(no GRN results: the GRN part was not run or did not finish)", ""]
@@ -197,7 +164,7 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     kc, nc = _pooled(tests, "clean") if "clean" in tests[0] else _pooled(tests)
     grn_eps: dict[int, list[int]] = {}
     for s in parse_seeds(g.seeds):
-        ep = _successes(gdir / f"{g.controllers[0]}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
+        ep = successes(gdir / f"{g.controllers[0]}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
         if ep is not None:
             grn_eps[s] = ep
     ctrl_rows = [f"| GRN (pooled over seeds) | {rate(kc, nc).fmt()} | — | — |"]
@@ -206,30 +173,30 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     for label, title in (("blind", "blind GRN (no vision)"), ("openloop", "best open-loop policy")):
         for s in parse_seeds(g.control_seeds):
             cdir = gdir / f"{label}_s{s}"
-            t = _load(cdir / "repro_test_clean.json")
+            t = load_json(cdir / "repro_test_clean.json")
             if t is not None:
-                ep = _successes(cdir / "eval_test_0_episodes.csv", "genome")
+                ep = successes(cdir / "eval_test_0_episodes.csv", "genome")
                 controls.append((f"{title}, seed {s}", t, ep))
-    trivial = _load(gdir / "baselines_test.json")
+    trivial = load_json(gdir / "baselines_test.json")
     triv_base = trivial["baselines"] if trivial else tests[0]["baselines"]
     for name, title in TRIVIAL_TITLES.items():
         b = triv_base.get(name)
         if b is not None:
-            ep = _successes(gdir / "baselines_test_episodes.csv", name) if trivial else None
+            ep = successes(gdir / "baselines_test_episodes.csv", name) if trivial else None
             row = {"successes": b["successes"], "episodes": b.get("n", tests[0]["episodes"])}
             controls.append((title, {**b, **row}, ep))
     for title, t, ep in controls:
         k2, n2 = int(t["successes"]), int(t["episodes"])
         p = fisher_exact(kc, nc, k2, n2)
-        paired = []
+        per_seed: list[str] = []
         mcn: list[tuple[float, float]] = []
         for s, gs in grn_eps.items():
-            pair = _paired(gs, ep)
+            pair = paired(gs, ep)
             if pair is not None:
                 mcn.append(pair)
-                paired.append(f"s{s}: {_fmt_pair(pair)}")
+                per_seed.append(f"s{s}: {fmt_pair(pair)}")
         ctrl_rows.append(
-            f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(paired) or '—'} |"
+            f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(per_seed) or '—'} |"
         )
         diffs.append((title, kc / nc - k2 / n2, p, mcn))
     lines += [
@@ -297,193 +264,6 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     return lines
 
 
-def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
-    """Thesis Table 4.2 per budget scale: every tested GRN run beside every tested baseline."""
-    from evodevo.baselines.table_4_2 import markdown, read_run, write_table
-    from evodevo.errors import EvodevoError
-    from evodevo.reproduce.pipeline import finished, kuka_run_dir
-
-    k, g = cfg.kuka, cfg.grn
-    grn_dirs = sorted(p for p in (out / "grn").glob("*_s*") if p.is_dir())
-    lines = [
-        "## Kuka grasping baselines (thesis Table 4.2, SPEC §4)",
-        "",
-        f"Each baseline ({', '.join(k.methods)}; seeds {k.seeds}) trains for the environment "
-        "steps its seed's GRN evolution used, times the scale in the heading, and is tested on "
-        f"the same {g.test_episodes} test-object episodes as the GRN. Training time is the wall "
-        "clock each run's summary.json records, on a machine that may have been shared; the GRN "
-        "and NEAT can evaluate genomes in parallel worker processes, PPO and TD3 train in one "
-        "process. NEAT stops at the end of the generation in which its budget runs out, so it "
-        "may use up to one generation more (its env steps are in the table).",
-        "",
-    ]
-    wrote = False
-    for scale in k.budget_scales:
-        dirs = [*grn_dirs]
-        dirs += [kuka_run_dir(out, m, scale, s) for m in k.methods for s in parse_seeds(k.seeds)]
-        tested: list[str | Path] = []
-        for d in dirs:
-            if not (d / "summary.json").is_file() or not finished(d / "summary.json"):
-                continue  # not started, or (NEAT) still evolving: listed as unfinished below
-            try:
-                read_run(d)
-            except EvodevoError:
-                continue
-            tested.append(d)
-        pending = _unfinished([d for d in dirs if Path(d).parent.name == "kuka"], tested)
-        if not any(Path(d).parent.name == "kuka" for d in tested):
-            if pending:
-                lines += [f"### Budget {scale:g}× the GRN's environment steps", "", *pending, ""]
-            continue
-        table, runs = write_table(tested, out / "kuka" / f"table_x{scale:g}")
-        title = f"### Budget {scale:g}× the GRN's environment steps"
-        lines += [markdown(table, runs, 0.5, title=title), ""]
-        lines += [*pending, ""] if pending else []
-        lines += kuka_paired(out, cfg, [Path(d) for d in tested if Path(d).parent.name == "kuka"])
-        lines += [f"#### Where we differ and why ({scale:g}×)", ""]
-        for r in table:
-            if r.thesis_success is None:
-                continue
-            inside = 100 * r.ci_low <= r.thesis_success <= 100 * r.ci_high
-            lines.append(
-                f"- {r.method}: {100 * r.success_rate:.1f} % [{100 * r.ci_low:.1f}, "
-                f"{100 * r.ci_high:.1f}] over {r.episodes} held-out-object episodes "
-                f"({r.runs} run{'s' if r.runs > 1 else ''}, {r.env_steps:.0f} env steps per run) vs the "
-                f"thesis' {r.thesis_success:.1f} % over {r.thesis_episodes:.0f} episodes: the "
-                f"thesis' value lies {'inside' if inside else 'outside'} our interval."
-            )
-        lines += [
-            "- The thesis gave its baselines other budgets than its GRN (its Table 4.1); here every "
-            f"baseline gets its seed's GRN env steps (× {scale:g}), so the training times measure the methods' "
-            "cost per env step on this machine, not a budget choice.",
-            "",
-        ]
-        wrote = True
-    if not wrote:
-        lines += [
-            "(no tested Kuka baseline yet: the baseline steps were not run or did not finish)",
-            "",
-        ]
-    return lines
-
-
-def _curve(d: Path) -> list[tuple[int, float]]:
-    """(env steps, training-time success) rows of a baseline run's ``learning_curve.csv``."""
-    path = d / "learning_curve.csv"
-    if not path.is_file():
-        return []
-    with path.open(newline="") as f:
-        return [(int(float(r["env_steps"])), float(r["success"])) for r in csv.DictReader(f)]
-
-
-def _unfinished(expected: list[Path], tested: list[str | Path]) -> list[str]:
-    """One line naming the budget's baseline runs that are not in the table, with their progress.
-
-    A run without a tested ``summary.json`` is either in progress (its learning curve shows the
-    env steps reached, against the budget in its ``config.json``) or not started.
-    """
-    done = {Path(d) for d in tested}
-    parts = []
-    for d in expected:
-        if d in done:
-            continue
-        budget = ((_load(d / "config.json") or {}).get("config", {}).get("budget") or {}).get(
-            "env_steps"
-        )
-        rows = _curve(d)
-        if rows:
-            of = f" of {int(budget):,}" if budget else ""
-            parts.append(f"`{d.name}` (in progress: {rows[-1][0]:,}{of} env steps)")
-        else:
-            parts.append(f"`{d.name}` (not started)")
-    if not parts:
-        return []
-    return [
-        "Not in this table because they have not finished (their checkpoints resume them): "
-        + ", ".join(parts)
-        + "."
-    ]
-
-
-def kuka_paired(out: Path, cfg: ReproduceConfig, run_dirs: list[Path]) -> list[str]:
-    """Each tested baseline run against the trivial policies and the GRN on the same episodes.
-
-    Differences in points with the exact McNemar p (SPEC §2.5: every table carries its trivial
-    baselines); the GRN is the first controller's run of the same seed (whose env steps set the
-    baseline's budget). Runs without a per-episode file are left out.
-    """
-    gdir = out / "grn"
-    g = cfg.grn
-    triv = {n: _successes(gdir / "baselines_test_episodes.csv", n) for n in TRIVIAL_TITLES}
-    rows = []
-    turn_cells: list[tuple[float, float]] = []
-    fell: list[str] = []
-    for d in run_dirs:
-        res = _load(d / "repro_test_clean.json")
-        ep = _successes(d / "eval_test_0_episodes.csv", "genome")
-        summ = _load(d / "summary.json") or {}
-        conf = (_load(d / "config.json") or {}).get("config", {})
-        if res is None or ep is None:
-            continue
-        seed = int(conf.get("seed", -1))
-        gs = _successes(
-            gdir / f"{g.controllers[0]}_s{seed}" / "eval_test_0.03_episodes.csv", "genome"
-        )
-        pairs = {name: _paired(ep, triv.get(name)) for name in TRIVIAL_TITLES}
-        cells = [_fmt_pair(pr) for pr in (*pairs.values(), _paired(ep, gs))]
-        turn = pairs.get("turn")
-        if turn is not None:
-            turn_cells.append(turn)
-        curve = [s for _, s in _curve(d)]
-        train = f"{max(curve):.2f} / {curve[-1]:.2f}" if curve else "—"
-        if curve and max(curve) - curve[-1] >= 0.3:
-            fell.append(
-                f"{conf.get('method', d.name)} seed {seed} ({max(curve):.2f} → {curve[-1]:.2f})"
-            )
-        rows.append(
-            f"| {conf.get('method', d.name)} | {seed} | {summ.get('env_steps', '?')} | {train} | "
-            f"{_pct(res)} | " + " | ".join(cells) + " |"
-        )
-    if not rows:
-        return []
-    heads = " | ".join(f"− {TRIVIAL_TITLES[n].split(' (')[0]}" for n in TRIVIAL_TITLES)
-    rates = []
-    for name, title in TRIVIAL_TITLES.items():
-        t = triv.get(name)
-        if t:
-            rates.append(f"{title} {rate(sum(t), len(t)).fmt()}")
-    above = sum(1 for c in turn_cells if c[0] > 0 and c[1] < 0.05)
-    below = sum(1 for c in turn_cells if c[0] < 0 and c[1] < 0.05)
-    return [
-        "Paired on the same test episodes: the run's success minus the policy's, in points "
-        "(exact McNemar p, uncorrected). GRN: the plain GRN of the same seed, whose env steps set "
-        "the budget. Training success: the training-object success of the run's periodic "
-        "evaluations (PPO, TD3) or best genome per generation (NEAT), best and last. Trivial "
-        "policies on these episodes: " + "; ".join(rates) + ".",
-        "",
-        f"| run | seed | env steps | training success best / last | success [95 % CI] | {heads} "
-        "| − GRN same seed |",
-        "|---|---|---|---|---|" + "---|" * (len(TRIVIAL_TITLES) + 1),
-        *rows,
-        "",
-        f"Against the constant turn, {above} of {len(turn_cells)} runs are significantly better "
-        f"and {below} significantly worse (McNemar p < 0.05, uncorrected).",
-        "",
-    ] + (
-        [
-            "Training success fell by 0.3 or more from its best to its last evaluation in "
-            + ", ".join(fell)
-            + " (each evaluation is a few training-object episodes, 10 for PPO and TD3, so one "
-            "value is uncertain by about ±0.3; the test column is the measurement). The tested policy is the last one (PPO, TD3: the final model; NEAT: the last "
-            "generation's best genome; no checkpoint is selected), so longer training can test "
-            "worse.",
-            "",
-        ]
-        if fell
-        else []
-    )
-
-
 def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) -> list[str]:
     """Each further controller against the first (e.g. neuromodulated vs plain GRN), per seed
     on the same clean test episodes (exact McNemar), and pooled over the seeds."""
@@ -494,9 +274,9 @@ def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) ->
     for other in controllers[1:]:
         rows, ka, kb, n, only_a, only_b = [], 0, 0, 0, 0, 0
         for s in seeds:
-            a = _successes(gdir / f"{other}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
-            b = _successes(gdir / f"{first}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
-            pair = _paired(a, b)
+            a = successes(gdir / f"{other}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
+            b = successes(gdir / f"{first}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
+            pair = paired(a, b)
             if pair is None or a is None or b is None:
                 continue
             ka, kb, n = ka + sum(a), kb + sum(b), n + len(a)
@@ -504,7 +284,7 @@ def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) ->
             only_b += sum(y > x for x, y in zip(a, b, strict=True))
             rows.append(
                 f"| {s} | {rate(sum(b), len(b)).fmt()} | {rate(sum(a), len(a)).fmt()} | "
-                f"{_fmt_pair(pair)} |"
+                f"{fmt_pair(pair)} |"
             )
         if not rows:
             continue
@@ -523,19 +303,6 @@ def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) ->
             "",
         ]
     return out
-
-
-def _paired(a: list[int] | None, b: list[int] | None) -> tuple[float, float] | None:
-    """(success of ``a`` − success of ``b``, exact McNemar p) for per-episode successes of the
-    same episodes; None if either is missing or they are not the same episodes."""
-    if a is None or b is None or len(a) != len(b):
-        return None
-    return (sum(a) - sum(b)) / len(a), mcnemar_exact(a, b)
-
-
-def _fmt_pair(pair: tuple[float, float] | None) -> str:
-    """``+d.d (p = x)`` in points, else ``—``."""
-    return "—" if pair is None else f"{100 * pair[0]:+.1f} (p = {pair[1]:.2g})"
 
 
 def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -> Path:
