@@ -220,6 +220,44 @@ def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeyp
     assert clock["16"]["train_s"] <= clock["24"]["train_s"]
 
 
+def test_td3_resumed_without_its_replay_buffer_refills_it_and_says_so(
+    tmp_path, tiny, monkeypatch
+):
+    from stable_baselines3 import TD3
+
+    from evodevo.baselines import sb3_kuka
+
+    out = tmp_path / "td3"
+    original = sb3_kuka.BudgetCallback._on_step
+
+    def killed_at_20(self):
+        if self.num_timesteps == 20:
+            raise Killed
+        return original(self)
+
+    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", killed_at_20)
+    with pytest.raises(Killed):
+        runner.invoke(
+            app,
+            ["kuka", "--method", "td3", "--budget-steps", "24", "--config", str(tiny)]
+            + ["--out", str(out), "--quiet"],
+            catch_exceptions=False,
+        )
+    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", original)
+    (out / "checkpoints" / "rl_model_replay_buffer_16_steps.pkl").unlink()
+    res = runner.invoke(app, ["kuka", "--method", "td3", "--out", str(out), "--resume", "--quiet"])
+    assert res.exit_code == 0, res.output
+    assert "replay buffer of the 16-step checkpoint" in res.output
+    s = _summary(out)
+    assert s["env_steps"] == 24 and s["replay_buffer_refilled_at"] == [16]
+    # learning_starts 4: the 16-step checkpoint holds the updates after steps 5-15 (11; it is
+    # written before step 16's update). After the refill no update until step 20, then after
+    # steps 21-23 (the budget stops the run before step 24's): 14. Without it: 11 + 7 = 18.
+    model = TD3.load(out / "model.zip", device="cpu")
+    assert model.learning_starts == 20
+    assert model._n_updates == 14
+
+
 def test_killed_neat_run_resumes_at_its_next_generation(tmp_path, tiny, monkeypatch):
     from evodevo.baselines import neat_kuka
 

@@ -44,7 +44,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
 from torch import nn
 
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
-from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import make_env
 from evodevo.runs import RunDir, read_json, write_json
 from evodevo.seeding import derive
@@ -64,6 +64,7 @@ EVAL_ENV_KEY = 11
 """Seed stream of the training-time success estimates (EvalCallback's env)."""
 CKPT_PREFIX = "rl_model"
 CLOCK_FILE = "clock.json"
+REFILLS_FILE = "refills.json"
 CURVE_FIELDS = ["env_steps", "train_s", "success", "mean_reward", "episodes"]
 _KERNELS = ((8, 4), (4, 2), (3, 1))
 _UNLIMITED_STEPS = 10**12
@@ -312,9 +313,10 @@ def _resume_state(
     model = load_sb3(cfg.method, folder / f"{CKPT_PREFIX}_{last}_steps.zip", env=env)
     buffer = folder / f"{CKPT_PREFIX}_replay_buffer_{last}_steps.pkl"
     if cfg.method == "td3":
-        if not buffer.is_file():
-            raise CheckpointError(f"--resume: the replay buffer {str(buffer)!r} is missing")
-        model.load_replay_buffer(buffer)
+        if buffer.is_file():
+            model.load_replay_buffer(buffer)
+        else:
+            refill_replay_buffer(model, folder, cfg.td3.learning_starts)
     clocks = read_json(folder / CLOCK_FILE) if (folder / CLOCK_FILE).is_file() else {}
     known = [int(k) for k in clocks if int(k) <= last]
     entry = clocks[str(max(known))] if known else {"train_s": 0.0, "eval_s": 0.0}
@@ -330,6 +332,35 @@ def _resume_state(
             if int(float(r["env_steps"])) <= last
         ]
     return model, clock, rows
+
+
+def refill_replay_buffer(model: Any, folder: Path, warmup_steps: int) -> None:
+    """Continue a TD3 checkpoint whose replay buffer is gone (never committed: ~0.7 GB).
+
+    The buffer starts empty and SB3 refills it exactly as at the start of a run: for
+    ``warmup_steps`` (``td3.learning_starts``) env steps it takes uniform random actions and
+    makes no gradient update; then training goes on from the checkpoint's networks. This is a
+    deviation from an uninterrupted run, so it is announced and recorded: the step counts at
+    which it happened go to ``checkpoints/refills.json`` and the summary's
+    ``replay_buffer_refilled_at``, and the report names them.
+    """
+    steps = int(model.num_timesteps)
+    model.learning_starts = steps + int(warmup_steps)
+    path = folder / REFILLS_FILE
+    refills = [int(x) for x in read_json(path)] if path.is_file() else []
+    write_json(path, sorted(set(refills) | {steps}))
+    print(
+        f"warning: the replay buffer of the {steps}-step checkpoint in {str(folder)!r} is "
+        f"missing; TD3 continues with an empty buffer refilled by {warmup_steps} random-action "
+        "steps (recorded as replay_buffer_refilled_at in summary.json)",
+        file=sys.stderr,
+    )
+
+
+def buffer_refills(folder: Path) -> list[int]:
+    """Env steps at which a resumed TD3 run refilled a lost replay buffer (ascending)."""
+    path = folder / REFILLS_FILE
+    return sorted(int(x) for x in read_json(path)) if path.is_file() else []
 
 
 def train_sb3(
@@ -395,6 +426,8 @@ def train_sb3(
     summary = summarise(
         cfg, int(model.num_timesteps), train_s, clock.eval_s, evaluator.rows, budget.stopped_by
     )
+    if refills := buffer_refills(folder):
+        summary["replay_buffer_refilled_at"] = refills
     run.write_summary(summary)
     return summary
 
