@@ -10,6 +10,9 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[all]'
+	# build the fused BIARM kernels now (~30-60 s once per machine), not inside the first run or
+	# test; without a compiler this prints why and the runs use the PyTorch/NumPy path
+	$(BIN)/python -c "from evodevo.neuromod import kernels as k; k.load() or print('evodevo: fused kernels not built:', k._error)"
 	touch $(STAMP)
 
 install: $(STAMP)

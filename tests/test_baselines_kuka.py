@@ -158,7 +158,8 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
     assert result["controller"] == "neat" and set(result["baselines"]) == {"zero", "random", "turn"}
 
 
-@pytest.mark.parametrize("method", ["zero", "random"])
+# ``random`` takes the same code path as ``zero`` (about 20 s each): it runs with -m slow.
+@pytest.mark.parametrize("method", ["zero", pytest.param("random", marks=pytest.mark.slow)])
 def test_trivial_baselines_need_no_training_and_match_the_evaluators_own(tmp_path, method):
     out = tmp_path / method
     invoke("kuka", "--method", method, "--out", out, "--quiet")
@@ -220,9 +221,7 @@ def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeyp
     assert clock["16"]["train_s"] <= clock["24"]["train_s"]
 
 
-def test_td3_resumed_without_its_replay_buffer_refills_it_and_says_so(
-    tmp_path, tiny, monkeypatch
-):
+def test_td3_resumed_without_its_replay_buffer_refills_it_and_says_so(tmp_path, tiny, monkeypatch):
     from stable_baselines3 import TD3
 
     from evodevo.baselines import sb3_kuka

@@ -33,6 +33,9 @@ def _evaluate(out, *extra):
     return {k: v for k, v in r.items() if k not in _WALL}
 
 
+# ~45 s; Ray-equals-local stays in the default run for the GRN evaluator (test_grn_evaluator.py),
+# the BIARM grid (test_biarm_compare_ray.py) and the pool (test_foundation.py).
+@pytest.mark.slow
 def test_neat_training_and_evaluation_on_ray_equal_local(tmp_path):
     pytest.importorskip("ray")
     import ray

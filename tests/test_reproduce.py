@@ -304,6 +304,20 @@ def test_unfinished_kuka_runs_are_named_with_their_progress(tmp_path):
     assert unfinished_runs([done], [done]) == []
 
 
+def test_a_td3_run_resumed_without_its_replay_buffer_is_named_in_the_report(tmp_path):
+    from evodevo.reproduce.kuka_report import refill_notes
+
+    refilled, clean = tmp_path / "td3_x5_s0", tmp_path / "td3_x5_s1"
+    for d, extra in ((refilled, {"replay_buffer_refilled_at": [23000]}), (clean, {})):
+        d.mkdir()
+        (d / "summary.json").write_text(json.dumps({"method": "td3", **extra}))
+    lines = refill_notes([refilled, clean])
+    assert len(lines) == 2 and lines[1] == ""
+    assert lines[0].startswith("- `td3_x5_s0` is not an uninterrupted run")
+    assert "at 23,000 env steps" in lines[0]
+    assert refill_notes([clean]) == []
+
+
 def test_coverage_lists_what_a_budget_leaves_out():
     from evodevo.reproduce.report import coverage
 

@@ -12,7 +12,7 @@ from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, pai
 from evodevo.runs import RunDir
 from evodevo.stats import rate
 
-__all__ = ["kuka_paired", "kuka_section", "learning_curve", "unfinished_runs"]
+__all__ = ["kuka_paired", "kuka_section", "learning_curve", "refill_notes", "unfinished_runs"]
 
 
 def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
@@ -57,6 +57,7 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         title = f"### Budget {scale:g}× the GRN's environment steps"
         lines += [markdown(table, runs, 0.5, title=title), ""]
         lines += [*pending, ""] if pending else []
+        lines += refill_notes([Path(d) for d in tested if Path(d).parent.name == "kuka"])
         lines += kuka_paired(out, cfg, [Path(d) for d in tested if Path(d).parent.name == "kuka"])
         lines += [f"#### Where we differ and why ({scale:g}×)", ""]
         for r in table:
@@ -91,6 +92,27 @@ def learning_curve(d: Path) -> list[tuple[int, float]]:
         return []
     rows = RunDir(d, create=False).read_csv("learning_curve.csv")
     return [(int(float(r["env_steps"])), float(r["success"])) for r in rows]
+
+
+def refill_notes(run_dirs: list[Path]) -> list[str]:
+    """One line per TD3 run that resumed without its replay buffer (not an uninterrupted run).
+
+    Replay buffers (~0.7 GB) are never committed, so a TD3 run resumed in a fresh checkout
+    refills its buffer (:func:`evodevo.baselines.sb3_kuka.refill_replay_buffer`); its summary's
+    ``replay_buffer_refilled_at`` lists the env steps at which that happened.
+    """
+    lines = []
+    for d in run_dirs:
+        at = (load_json(d / "summary.json") or {}).get("replay_buffer_refilled_at") or []
+        if at:
+            steps = ", ".join(f"{int(x):,}" for x in at)
+            lines.append(
+                f"- `{d.name}` is not an uninterrupted run: it was resumed at {steps} env steps "
+                "without its replay buffer (buffers are not committed), which SB3 refilled as at a "
+                "run's start (learning_starts random-action steps, no update) before training "
+                "went on from the checkpoint's networks."
+            )
+    return [*lines, ""] if lines else []
 
 
 def unfinished_runs(expected: list[Path], tested: list[str | Path]) -> list[str]:
