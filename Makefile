@@ -6,12 +6,13 @@ STAMP := $(VENV)/.installed
 
 .PHONY: run test install lint bench orig-venv clean
 
+# The install also builds the fused BIARM kernels (~30-60 s once per machine), so neither the
+# first run nor the first test pays for it; without a compiler it prints why, and runs use the
+# PyTorch/NumPy path.
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[all]'
-	# build the fused BIARM kernels now (~30-60 s once per machine), not inside the first run or
-	# test; without a compiler this prints why and the runs use the PyTorch/NumPy path
 	$(BIN)/python -c "from evodevo.neuromod import kernels as k; k.load() or print('evodevo: fused kernels not built:', k._error)"
 	touch $(STAMP)
 
