@@ -177,10 +177,10 @@ def test_trivial_baselines_need_no_training_and_match_the_evaluators_own(tmp_pat
     assert via_grn["controller"] == method and via_grn["successes"] == result["successes"]
 
 
-def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeypatch):
+def _killed_at_20_of_24(method, tiny, out, monkeypatch):
+    """Train ``method`` for 24 env steps into ``out``, killed at step 20 (last checkpoint: 16)."""
     from evodevo.baselines import sb3_kuka
 
-    out = tmp_path / "ppo"
     original = sb3_kuka.BudgetCallback._on_step
 
     def killed_at_20(self):
@@ -188,33 +188,28 @@ def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeyp
             raise Killed
         return original(self)
 
-    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", killed_at_20)
-    with pytest.raises(Killed):
-        runner.invoke(
-            app,
-            [
-                "kuka",
-                "--method",
-                "ppo",
-                "--budget-steps",
-                "24",
-                "--config",
-                str(tiny),
-                "--out",
-                str(out),
-                "--quiet",
-            ],
-            catch_exceptions=False,
-        )
+    with monkeypatch.context() as m:
+        m.setattr(sb3_kuka.BudgetCallback, "_on_step", killed_at_20)
+        with pytest.raises(Killed):
+            runner.invoke(
+                app,
+                ["kuka", "--method", method, "--budget-steps", "24", "--config", str(tiny)]
+                + ["--out", str(out), "--quiet"],
+                catch_exceptions=False,
+            )
+
+
+def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeypatch):
+    out = tmp_path / "ppo"
+    _killed_at_20_of_24("ppo", tiny, out, monkeypatch)
     assert not (out / "summary.json").exists()
     assert [p.name for p in (out / "checkpoints").glob("*.zip")] == ["rl_model_16_steps.zip"]
-    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", original)
     # a fresh start into the same folder is refused
     with pytest.raises(EvodevoError, match="--resume"):
         invoke("kuka", "--method", "ppo", "--budget-steps", 24, "--config", tiny, "--out", out)
     invoke("kuka", "--method", "ppo", "--out", out, "--resume", "--quiet")
     s = _summary(out)
-    assert s["env_steps"] == 24
+    assert s["env_steps"] == 24 and "replay_buffer_refilled_at" not in s
     curve = (out / "learning_curve.csv").read_text().splitlines()[1:]
     assert [int(r.split(",")[0]) for r in curve] == [8, 16, 24]
     clock = json.loads((out / "checkpoints" / "clock.json").read_text())
@@ -224,25 +219,8 @@ def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeyp
 def test_td3_resumed_without_its_replay_buffer_refills_it_and_says_so(tmp_path, tiny, monkeypatch):
     from stable_baselines3 import TD3
 
-    from evodevo.baselines import sb3_kuka
-
     out = tmp_path / "td3"
-    original = sb3_kuka.BudgetCallback._on_step
-
-    def killed_at_20(self):
-        if self.num_timesteps == 20:
-            raise Killed
-        return original(self)
-
-    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", killed_at_20)
-    with pytest.raises(Killed):
-        runner.invoke(
-            app,
-            ["kuka", "--method", "td3", "--budget-steps", "24", "--config", str(tiny)]
-            + ["--out", str(out), "--quiet"],
-            catch_exceptions=False,
-        )
-    monkeypatch.setattr(sb3_kuka.BudgetCallback, "_on_step", original)
+    _killed_at_20_of_24("td3", tiny, out, monkeypatch)
     (out / "checkpoints" / "rl_model_replay_buffer_16_steps.pkl").unlink()
     res = runner.invoke(app, ["kuka", "--method", "td3", "--out", str(out), "--resume", "--quiet"])
     assert res.exit_code == 0, res.output
