@@ -346,9 +346,7 @@ def refill_replay_buffer(model: Any, folder: Path, warmup_steps: int) -> None:
     """
     steps = int(model.num_timesteps)
     model.learning_starts = steps + int(warmup_steps)
-    path = folder / REFILLS_FILE
-    refills = [int(x) for x in read_json(path)] if path.is_file() else []
-    write_json(path, sorted(set(refills) | {steps}))
+    write_json(folder / REFILLS_FILE, sorted(set(buffer_refills(folder)) | {steps}))
     print(
         f"warning: the replay buffer of the {steps}-step checkpoint in {str(folder)!r} is "
         f"missing; TD3 continues with an empty buffer refilled by {warmup_steps} random-action "

@@ -57,8 +57,9 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         title = f"### Budget {scale:g}× the GRN's environment steps"
         lines += [markdown(table, runs, 0.5, title=title), ""]
         lines += [*pending, ""] if pending else []
-        lines += refill_notes([Path(d) for d in tested if Path(d).parent.name == "kuka"])
-        lines += kuka_paired(out, cfg, [Path(d) for d in tested if Path(d).parent.name == "kuka"])
+        baselines = [Path(d) for d in tested if Path(d).parent.name == "kuka"]
+        lines += refill_notes(baselines)
+        lines += kuka_paired(out, cfg, baselines)
         lines += [f"#### Where we differ and why ({scale:g}×)", ""]
         for r in table:
             if r.thesis_success is None:
