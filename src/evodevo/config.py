@@ -141,6 +141,8 @@ def from_dict(cls: type[T], data: Mapping[str, Any], where: str = "") -> T:
     for name, value in data.items():
         key = f"{where}.{name}" if where else name
         kwargs[name] = _coerce(value, hints[name], key)
+        if name == "seed" or name.endswith("_seed"):
+            _check_seed(key, kwargs[name])
     try:
         obj = cls(**kwargs)
     except TypeError as exc:
@@ -167,7 +169,7 @@ def load_config(
             loaded = yaml.safe_load(p.read_text())
         except yaml.YAMLError as exc:
             raise ConfigError(
-                f"config file {str(p)!r} is not valid YAML: {exc}".splitlines()[0]
+                f"config file {str(p)!r} is not valid YAML: {_yaml_error(exc)}"
             ) from None
         if loaded is None:
             loaded = {}
@@ -179,6 +181,22 @@ def load_config(
     if overrides:
         data = _merge(data, overrides)
     return from_dict(cls, data)
+
+
+def _yaml_error(exc: yaml.YAMLError) -> str:
+    """One line of a YAML error: what is wrong and where (line and column, 1-based)."""
+    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+    what = getattr(exc, "problem", None) or getattr(exc, "context", None) or str(exc)
+    what = " ".join(str(what).split())
+    if mark is None:
+        return what
+    return f"{what} at line {mark.line + 1}, column {mark.column + 1}"
+
+
+def _check_seed(key: str, value: Any) -> None:
+    """Seeds (fields named ``seed`` or ``*_seed``) are non-negative integers (NumPy's rule)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value < 0:
+        raise ConfigError(f"{key}={value}: a seed must be >= 0")
 
 
 def _merge(base: Mapping[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:

@@ -4,6 +4,10 @@ Every worker process runs :func:`worker_setup` first: one torch thread per proce
 on two cores make small-network training 10-20x slower under load), then the caller's
 initializer (e.g. building its own environment, which it then reuses for every task).
 
+A worker process exits by itself when its parent dies, however the parent dies (SIGKILL
+included, when no ``finally`` runs): :func:`exit_with_parent` watches the parent's pid from a
+daemon thread, so killed runs leave no idle workers behind.
+
 A worker process that dies (killed, segfault in the simulator) breaks the pool; the pool is
 rebuilt and the unfinished items are submitted again, each at most ``max_retries`` times, after
 which a clear :class:`~evodevo.errors.EvodevoError` says which item kept failing. Exceptions
@@ -26,7 +30,7 @@ from typing import Any, TypeVar
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["WorkerPool", "worker_setup", "set_single_thread"]
+__all__ = ["WorkerPool", "worker_setup", "set_single_thread", "exit_with_parent"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -45,6 +49,41 @@ def set_single_thread() -> None:
                 torch.set_num_interop_threads(1)
     except ImportError:  # pragma: no cover - torch is a hard dependency
         pass
+
+
+#: Seconds between two looks at the parent's pid in :func:`exit_with_parent`.
+PARENT_POLL_S = 0.5
+
+
+def exit_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> None:
+    """End this process when ``parent_pid`` is no longer its parent (the parent died).
+
+    A daemon thread compares ``os.getppid()`` with ``parent_pid`` every ``poll_s`` seconds and
+    calls ``os._exit`` when they differ (the orphan was re-parented to init or a subreaper).
+    Unlike ``prctl(PR_SET_PDEATHSIG)`` it works on every POSIX system and does not fire when
+    merely the parent *thread* that spawned the worker ends.
+    """
+    import threading
+    import time
+
+    if os.getppid() != parent_pid:  # the parent died before we got here
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(poll_s)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="evodevo-parent-watch", daemon=True).start()
+
+
+def _local_worker_setup(
+    parent_pid: int, initializer: Callable[..., None] | None, initargs: tuple[Any, ...]
+) -> None:
+    """Initializer of a local pool worker: die with the parent, then :func:`worker_setup`."""
+    exit_with_parent(parent_pid)
+    worker_setup(initializer, initargs)
 
 
 def worker_setup(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
@@ -90,8 +129,8 @@ class WorkerPool:
         return ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=ctx,
-            initializer=worker_setup,
-            initargs=(self.initializer, self.initargs),
+            initializer=_local_worker_setup,
+            initargs=(os.getpid(), self.initializer, self.initargs),
         )
 
     def __enter__(self) -> WorkerPool:

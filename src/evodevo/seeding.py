@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-__all__ = ["child_seeds", "np_rng", "torch_gen", "derive"]
+from evodevo.errors import EvodevoError
+
+__all__ = ["child_seeds", "np_rng", "torch_gen", "derive", "parse_seeds"]
 
 
 def child_seeds(seed: int, n: int, *key: int) -> list[int]:
@@ -36,3 +38,35 @@ def torch_gen(seed: int, *key: int) -> torch.Generator:
     g = torch.Generator()
     g.manual_seed(derive(seed, *key))
     return g
+
+
+def parse_seeds(text: str, name: str = "--seeds") -> list[int]:
+    """A seed list as written in a config or on the command line.
+
+    ``"0-4"`` → [0, 1, 2, 3, 4]; ``"0,2,7"`` → [0, 2, 7]; ``"3"`` → [3]. Seeds are
+    non-negative; ``name`` is the option or config key named in the error.
+
+    >>> parse_seeds("0-2,7")
+    [0, 1, 2, 7]
+    """
+    out: list[int] = []
+    try:
+        for part in text.split(","):
+            part = part.strip()
+            if not part:
+                continue
+            if part.startswith("-"):
+                raise EvodevoError(f"{name} {text!r}: seed {part} must be >= 0")
+            if "-" in part:
+                a, b = part.split("-", 1)
+                lo, hi = int(a), int(b)
+                if hi < lo:
+                    raise ValueError
+                out.extend(range(lo, hi + 1))
+            else:
+                out.append(int(part))
+    except ValueError:
+        raise EvodevoError(f"{name} {text!r} is not a seed list; use e.g. 0-4 or 0,1,5") from None
+    if not out:
+        raise EvodevoError(f"{name} {text!r} names no seed; use e.g. 0-4 or 0,1,5")
+    return out

@@ -13,7 +13,13 @@ from typing import Any
 
 import typer
 
-from evodevo.cli.common import ADDRESS_HELP, BACKEND_HELP, add_evaluate_command, check_backend
+from evodevo.cli.common import (
+    ADDRESS_HELP,
+    BACKEND_HELP,
+    add_evaluate_command,
+    check_backend,
+    check_seed,
+)
 from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
@@ -79,6 +85,7 @@ def kuka(
     from evodevo.runs import read_json
 
     set_single_thread()
+    check_seed("--seed", seed)
     if method not in METHODS:
         raise EvodevoError(f"--method {method!r} is not known; choose one of {', '.join(METHODS)}")
     if budget_steps is not None and budget_steps <= 0:

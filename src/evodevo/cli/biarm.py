@@ -17,7 +17,7 @@ from typing import Any
 
 import typer
 
-from evodevo.cli.common import ADDRESS_HELP, check_backend, parse_list, parse_seeds
+from evodevo.cli.common import ADDRESS_HELP, check_backend, check_seed, parse_list, parse_seeds
 from evodevo.errors import EvodevoError
 
 #: Every variant name (kept literal: importing the variants module would load torch on start).
@@ -62,8 +62,8 @@ def _load(
                 f"--episodes-scale {episodes_scale} must be a positive number (e.g. 0.25)"
             )
         extra["episodes_scale"] = episodes_scale
+    ids = parse_list(tasks, "--tasks")
     cfg = load_config(BiarmConfig, config, extra)
-    ids = parse_list(tasks)
     if ids:
         from evodevo.config import replace
 
@@ -125,8 +125,14 @@ def train(
     from evodevo.parallel import set_single_thread
     from evodevo.signals import GracefulStop
 
+    check_seed("--seed", seed)
     cfg = None
-    if resume and (out / "config.json").is_file():
+    if resume and not (out / "config.json").is_file():
+        where = "does not exist" if not out.exists() else "holds no run (no config.json)"
+        raise EvodevoError(
+            f"--resume: {str(out)!r} {where}; check --out, or start a new run without --resume"
+        )
+    if resume:
         own = config is not None or tasks is not None or episodes_scale is not None or bool(set_)
         variant, seed, cfg = _resume_settings(out, variant, seed, own)
     var = get_variant(variant if variant is not None else "biarm")
@@ -218,6 +224,40 @@ def compare(
     typer.echo(f"trained {len(done)} run(s); writing tables and figures")
     report = write_report(out)
     typer.echo(f"wrote {report}")
+
+
+@app.command()
+def sweep(
+    config: Path = typer.Option(
+        Path("configs/biarm_sweep.yaml"), help="Sweep YAML: protocols, tasks, variants, seeds."
+    ),
+    protocols: str | None = typer.Option(None, help="Only these protocols (comma-separated)."),
+    tasks: str | None = typer.Option(None, help="Only these tasks (comma-separated ids)."),
+    variants: str | None = typer.Option(None, help="Only these variants (comma-separated)."),
+    seeds: str | None = typer.Option(None, help="Only these seeds, e.g. 0-4."),
+    workers: int = typer.Option(1, help="Parallel runs (worker processes)."),
+    table_only: bool = typer.Option(False, help="Only rewrite the table from finished runs."),
+    out: Path = typer.Option(..., help="Sweep folder (OUT/PROTOCOL/TASK/VARIANT__sSEED)."),
+) -> None:
+    """The DQN protocol sweep (SPEC 1.6, issue 21): each task alone, per protocol.
+
+    Finished runs are skipped, interrupted ones resume; the table (OUT/sweep.md) covers every
+    finished run of the selection.
+    """
+    from evodevo.neuromod.protocol_sweep import SweepSpec, run_sweep, sweep_table
+    from evodevo.parallel import set_single_thread
+
+    spec = SweepSpec.load(config).select(
+        parse_list(protocols),
+        parse_list(tasks),
+        parse_list(variants),
+        parse_seeds(seeds) if seeds else None,
+    )
+    if not table_only:
+        set_single_thread()
+        done = run_sweep(spec, out, workers=workers)
+        typer.echo(f"trained {len(done)} run(s)")
+    typer.echo(sweep_table(spec, out))
 
 
 @app.command()

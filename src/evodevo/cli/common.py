@@ -10,38 +10,30 @@ from typing import Any
 import typer
 
 from evodevo.errors import EvodevoError
+from evodevo.seeding import parse_seeds
 
-__all__ = ["parse_seeds", "parse_list"]
-
-
-def parse_seeds(text: str) -> list[int]:
-    """``"0-4"`` → [0, 1, 2, 3, 4]; ``"0,2,7"`` → [0, 2, 7]; ``"3"`` → [3]."""
-    out: list[int] = []
-    try:
-        for part in text.split(","):
-            part = part.strip()
-            if not part:
-                continue
-            if "-" in part[1:]:
-                a, b = part.split("-", 1) if not part.startswith("-") else (part, part)
-                lo, hi = int(a), int(b)
-                if hi < lo:
-                    raise ValueError
-                out.extend(range(lo, hi + 1))
-            else:
-                out.append(int(part))
-    except ValueError:
-        raise EvodevoError(f"--seeds {text!r} is not a seed list; use e.g. 0-4 or 0,1,5") from None
-    if not out:
-        raise EvodevoError(f"--seeds {text!r} names no seed; use e.g. 0-4 or 0,1,5")
-    return out
+__all__ = ["parse_seeds", "parse_list", "check_seed"]
 
 
-def parse_list(text: str | None) -> list[str] | None:
-    """Comma-separated list, or None when not given."""
+def check_seed(option: str, seed: int | None) -> None:
+    """Reject a negative seed (NumPy seeds are non-negative) before any work starts."""
+    if seed is not None and seed < 0:
+        raise EvodevoError(f"{option} {seed} must be >= 0 (seeds are non-negative integers)")
+
+
+def parse_list(text: str | None, option: str | None = None) -> list[str] | None:
+    """Comma-separated list, or None when not given.
+
+    With ``option`` (e.g. ``"--tasks"``), a given text that names nothing (``''``, ``','``)
+    is an error instead of meaning "the default".
+    """
     if text is None:
         return None
     items = [t.strip() for t in text.split(",") if t.strip()]
+    if not items and option is not None:
+        raise EvodevoError(
+            f"{option} {text!r} names nothing; give a comma-separated list or leave {option} out"
+        )
     return items or None
 
 
@@ -117,6 +109,7 @@ def add_evaluate_command(
 
         set_single_thread()
         check_backend(backend, address, workers)
+        check_seed("--seed", seed)
         if check_run is not None:
             check_run(run_dir)
         res = evaluate_run(

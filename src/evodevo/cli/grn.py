@@ -11,7 +11,15 @@ from typing import Any
 
 import typer
 
-from evodevo.cli.common import ADDRESS_HELP, BACKEND_HELP, add_evaluate_command, format_rate
+from evodevo.cli.common import (
+    ADDRESS_HELP,
+    BACKEND_HELP,
+    add_evaluate_command,
+    check_backend,
+    check_seed,
+    format_rate,
+    parse_list,
+)
 from evodevo.errors import EvodevoError
 
 __all__ = ["app"]
@@ -83,12 +91,24 @@ def evolve(
     from evodevo.runs import read_json
 
     set_single_thread()
+    check_seed("--seed", seed)
+    check_backend(backend, address, workers)
     ov = _overrides(population, generations, episodes, seed, controller, blind, open_loop)
-    if resume and config is None and (out / "config.json").is_file():
+    if resume and not (out / "config.json").is_file():
+        where = "does not exist" if not out.exists() else "holds no run (no config.json)"
+        raise EvodevoError(
+            f"--resume: {str(out)!r} {where}; check --out, or start a new run without --resume"
+        )
+    if resume and config is None:
         saved = read_json(out / "config.json").get("config", {})
         cfg = load_config(GrnConfig, None, _merge(saved, ov))
     else:
         cfg = load_config(GrnConfig, config, ov)
+    if cfg.controller == "open_loop" and cfg.sensors.blind:
+        raise EvodevoError(
+            "--blind and the open-loop controller contradict each other: an open-loop policy "
+            "reads no sensors; drop --blind (or sensors.blind) or choose another controller"
+        )
     summary = evolve_run(
         cfg,
         out,
@@ -138,7 +158,8 @@ def baselines(
     from evodevo.parallel import set_single_thread
 
     set_single_thread()
-    names = [p.strip() for p in policies.split(",") if p.strip()] if policies else None
+    check_seed("--seed", seed)
+    names = parse_list(policies, "--policies")
     res = evaluate_baselines(
         load_config(GrnConfig, config), out, episodes, objects, seed, workers, policies=names
     )
@@ -164,6 +185,7 @@ def ablate(
     from evodevo.runs import RunDir
 
     set_single_thread()
+    check_seed("--seed", seed)
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     if modulators:

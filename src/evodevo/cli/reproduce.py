@@ -6,6 +6,8 @@ from pathlib import Path
 
 import typer
 
+from evodevo.cli.common import check_seed
+
 __all__ = ["reproduce"]
 
 
@@ -37,6 +39,7 @@ def reproduce(
     from evodevo.reproduce import run_reproduce
 
     set_single_thread()
+    check_seed("--seed", seed)
     run_reproduce(
         budget=budget,
         out=out,

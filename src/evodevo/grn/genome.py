@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import io
 import json
+import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -35,6 +37,8 @@ __all__ = [
     "stack_genomes",
     "save_arrays",
     "load_arrays",
+    "genome_frontend",
+    "check_frontend",
 ]
 
 FORMAT_VERSION = 1
@@ -60,11 +64,21 @@ def load_arrays(
     p = Path(path)
     if not p.is_file():
         raise CheckpointError(f"genome file {str(p)!r} does not exist; check the run directory")
+    with p.open("rb") as fh:
+        magic = fh.read(4)
+    if magic != b"PK\x03\x04":  # every .npz is a zip archive; say so instead of NumPy's advice
+        what = "is empty" if not magic else "is not an .npz archive"
+        raise CheckpointError(
+            f"{str(p)!r} {what}, so it is not a file written by evodevo; check the path"
+        )
     try:
         with np.load(p, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
-    except (OSError, ValueError) as exc:
-        raise CheckpointError(f"{str(p)!r} is not a genome file ({exc})") from None
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        raise CheckpointError(
+            f"{str(p)!r} is truncated or corrupt ({type(exc).__name__}: {exc}); "
+            "restore it or re-run the step that wrote it"
+        ) from None
     if _META_KEY not in arrays:
         raise CheckpointError(f"{str(p)!r} has no evodevo header; it was not written by evodevo")
     header = json.loads(arrays.pop(_META_KEY).tobytes().decode())
@@ -136,6 +150,7 @@ class GrnGenome:
         n_actions: int | None = None,
         n_visual: int | None = None,
         where: str = "genome",
+        feature_dim: int | None = None,
     ) -> None:
         """Raise CheckpointError if the shapes are inconsistent or differ from the given sizes."""
         n = self.theta.shape[-1] if self.theta.ndim == 1 else -1
@@ -146,7 +161,10 @@ class GrnGenome:
             "theta": (n,),
             "delta": (n,),
             "alpha": (n,),
-            "P": (128, n_visual if n_visual is not None else self.P.shape[-1]),
+            "P": (
+                feature_dim if feature_dim is not None else self.P.shape[-2],
+                n_visual if n_visual is not None else self.P.shape[-1],
+            ),
         }
         for name, shape in expect.items():
             arr = getattr(self, name)
@@ -169,15 +187,40 @@ class GrnGenome:
         n_sensors: int | None = None,
         n_actions: int | None = None,
         n_visual: int | None = None,
+        frontend: str | None = None,
+        feature_dim: int | None = None,
     ) -> GrnGenome:
-        """Load a genome saved by :meth:`save`; shapes are checked (against the sizes if given)."""
-        arrays, _ = load_arrays(path, cls.KIND)
+        """Load a genome saved by :meth:`save`; shapes are checked (against the sizes if given).
+
+        With ``frontend``, the visual front-end the genome was evolved with (``sensors.encoder``
+        of its saved config; ``cnn`` for genomes older than the choice) must be that one
+        (SPEC §2.2: a genome records its front-end and refuses to run with another).
+        """
+        arrays, header = load_arrays(path, cls.KIND)
+        if frontend is not None:
+            check_frontend(header, frontend, path)
         missing = [n for n in cls.names() if n not in arrays]
         if missing:
             raise CheckpointError(f"{str(path)!r} lacks the genome arrays {missing}")
         g = cls(**{n: arrays[n] for n in cls.names()})
-        g.check(n_sensors, n_actions, n_visual, where=str(path))
+        g.check(n_sensors, n_actions, n_visual, where=str(path), feature_dim=feature_dim)
         return g
+
+
+def genome_frontend(header: Mapping[str, Any]) -> str:
+    """The front-end recorded in a genome file's header (``cnn`` when none is recorded)."""
+    cfg = header.get("config") or {}
+    return str((cfg.get("sensors") or {}).get("encoder", "cnn"))
+
+
+def check_frontend(header: Mapping[str, Any], frontend: str, path: str | Path) -> None:
+    """Raise CheckpointError if the genome of ``path`` was evolved with another front-end."""
+    saved = genome_frontend(header)
+    if saved != frontend:
+        raise CheckpointError(
+            f"{str(path)!r} was evolved with the visual front-end {saved!r} and cannot run with "
+            f"{frontend!r}; evaluate it with sensors.encoder: {saved}"
+        )
 
 
 def init_genome(config: Any, n_actions: int, rng: np.random.Generator) -> GrnGenome:
@@ -198,7 +241,10 @@ def init_genome(config: Any, n_actions: int, rng: np.random.Generator) -> GrnGen
     theta = rng.uniform(gi.theta_init[0], gi.theta_init[1], n)
     delta = rng.uniform(gi.delta_init[0], gi.delta_init[1], n)
     alpha = rng.uniform(gi.alpha_init[0], gi.alpha_init[1], n)
-    P = rng.normal(0.0, gi.p_std, (config.sensors.feature_dim, config.sensors.n_visual))
+    if gi.p_init == "identity":
+        P = np.eye(config.sensors.feature_dim, config.sensors.n_visual)
+    else:
+        P = rng.normal(0.0, gi.p_std, (config.sensors.feature_dim, config.sensors.n_visual))
     return GrnGenome(W_s, W_r, W_m, theta, delta, alpha, P)
 
 
