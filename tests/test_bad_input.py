@@ -78,7 +78,7 @@ def test_biarm_resume_needs_a_run(tmp_path, tiny_biarm, kind):
         (["grn", "evolve", *TINY_GRN, "--blind", "--controller", "open_loop"], "contradict"),
         (["grn", "evolve", *TINY_GRN, "--resume"], "does not exist"),
         (["baselines", "kuka", "--method", "zero", "--seed", "-3"], "--seed -3"),
-        (["reproduce", "--seed", "-1"], "--seed -1"),
+        (["reproduce", "--seed-offset", "-1"], "--seed-offset -1"),
     ],
 )
 def test_bad_options_leave_no_run_directory(tmp_path, args, match):

@@ -94,7 +94,7 @@ def test_sb3_baseline_trains_to_the_exact_step_budget_and_is_evaluable(tmp_path,
     assert (out / "checkpoints" / "rl_model_replay_buffer_16_steps.pkl").is_file() == (
         method == "td3"
     )
-    res = invoke("evaluate", out, "--episodes", 1, "--no-baselines", "--json")
+    res = invoke("evaluate", out, "--test-episodes", 1, "--no-baselines", "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
     assert result["controller"] == method and result["episodes"] == 1
     assert result["successes"] in (0, 1) and (out / "eval_test_0.json").is_file()
@@ -153,7 +153,7 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
         assert (out / name).is_file(), name
     assert "pop_size               = 2" in (out / "neat.ini").read_text()
     assert "weight_mutate_rate      = 0.8" in (out / "neat.ini").read_text()
-    res = invoke("evaluate", out, "--episodes", 1, "--json")
+    res = invoke("evaluate", out, "--test-episodes", 1, "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
     assert result["controller"] == "neat" and set(result["baselines"]) == {"zero", "random", "turn"}
 
@@ -164,14 +164,14 @@ def test_trivial_baselines_need_no_training_and_match_the_evaluators_own(tmp_pat
     out = tmp_path / method
     invoke("kuka", "--method", method, "--out", out, "--quiet")
     assert _summary(out)["env_steps"] == 0
-    res = invoke("evaluate", out, "--episodes", 2, "--json")
+    res = invoke("evaluate", out, "--test-episodes", 2, "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
     # the run directory's policy is the very trivial policy measured beside it, same seeds
     assert result["successes"] == result["baselines"][method]["successes"]
     # `evodevo grn evaluate` takes the same run directory through the same code
     from evodevo.cli import app as main_app
 
-    res = runner.invoke(main_app, ["grn", "evaluate", str(out), "--episodes", "2", "--json"])
+    res = runner.invoke(main_app, ["grn", "evaluate", str(out), "--test-episodes", "2", "--json"])
     assert res.exit_code == 0, res.output
     via_grn = json.loads(res.output.strip().splitlines()[-1])
     assert via_grn["controller"] == method and via_grn["successes"] == result["successes"]
@@ -296,7 +296,7 @@ def test_a_model_of_another_method_is_refused_by_the_evaluator(tmp_path, tiny):
     )
     shutil.copy(td3 / "model.zip", ppo / "model.zip")
     with pytest.raises(EvodevoError, match="is not a saved PPO model"):
-        invoke("evaluate", ppo, "--episodes", 1)
+        invoke("evaluate", ppo, "--test-episodes", 1)
     from evodevo.grn.evaluation import evaluate_run
 
     with pytest.raises(EvodevoError, match="is not a saved PPO model"):

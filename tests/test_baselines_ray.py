@@ -28,7 +28,7 @@ def _history(out):
 
 
 def _evaluate(out, *extra):
-    res = invoke("evaluate", out, "--episodes", 2, "--no-baselines", "--json", *extra)
+    res = invoke("evaluate", out, "--test-episodes", 2, "--no-baselines", "--json", *extra)
     r = json.loads(res.output.strip().splitlines()[-1])
     return {k: v for k, v in r.items() if k not in _WALL}
 

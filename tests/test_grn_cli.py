@@ -48,7 +48,7 @@ def test_evolve_and_evaluate_on_the_real_kuka_env(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["generations_run"] == 1 and summary["episodes_run"] == 2
     assert 2 <= summary["env_steps"] <= 16
-    res = invoke("evaluate", out, "--episodes", 1, "--json")
+    res = invoke("evaluate", out, "--test-episodes", 1, "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
     assert result["episodes"] == 1 and set(result["baselines"]) == {"zero", "random", "turn"}
     assert 0.0 <= result["ci_low"] <= result["success_rate"] <= result["ci_high"] <= 1.0
@@ -73,7 +73,7 @@ def test_evaluate_json_noise_ablate_plot_video(fake_run, tmp_path):
     r = json.loads(res.output.strip().splitlines()[-1])
     assert r["episodes"] == 6 and r["noise"] == 0.03 and "clean" in r and "retention" in r
     assert r["baselines"]["zero"]["n"] == 6
-    res = invoke("ablate", fake_run, "--episodes", 4)
+    res = invoke("ablate", fake_run, "--test-episodes", 4)
     assert "no_regulation" in res.output and (fake_run / "ablations.csv").is_file()
     res = invoke("plot", fake_run)
     names = {p.rsplit("/", 1)[-1] for p in res.output.split()}
@@ -87,7 +87,7 @@ def test_evaluate_json_noise_ablate_plot_video(fake_run, tmp_path):
     assert any(n.startswith("rolling_success_eval_train") for n in names)
     base = tmp_path / "base" / "b.json"
     cfg = fake_run.parent / "fake.yaml"
-    invoke("baselines", "--config", cfg, "--episodes", 6, "--objects", "train", "--out", base)
+    invoke("baselines", "--config", cfg, "--test-episodes", 6, "--objects", "train", "--out", base)
     res = invoke("evaluate", fake_run, "--objects", "train", "--baselines-from", base, "--json")
     reused = json.loads(res.output.strip().splitlines()[-1])
     assert reused["baselines"] == r["baselines"]  # same episodes, same trivial-policy results

@@ -98,7 +98,7 @@ def test_cli_evolve_and_evaluate_on_pendulum(tmp_path, kind):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["controller"] == kind and summary["env_steps"] == 400
     res = runner.invoke(
-        app, ["grn", "evaluate", str(out), "--objects", "train", "--episodes", "2", "--json"]
+        app, ["grn", "evaluate", str(out), "--objects", "train", "--test-episodes", "2", "--json"]
     )
     assert res.exit_code == 0, res.output
     result = json.loads(res.output.strip().splitlines()[-1])

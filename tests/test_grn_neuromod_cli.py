@@ -72,9 +72,9 @@ def fake_neuromod_run(tmp_path):
 
 def test_modulator_ablations_trace_and_figure(fake_neuromod_run):
     run = fake_neuromod_run
-    res = invoke("evaluate", run, "--episodes", 4, "--noise", 0.03, "--no-baselines", "--json")
+    res = invoke("evaluate", run, "--test-episodes", 4, "--noise", 0.03, "--no-baselines", "--json")
     assert json.loads(res.output.strip().splitlines()[-1])["controller"] == "neuromodulated"
-    res = invoke("ablate", run, "--modulators", "--episodes", 6)
+    res = invoke("ablate", run, "--modulators", "--test-episodes", 6)
     assert "no_ACh" in res.output and "Modulator ablations" in res.output
     rows = json.loads((run / "modulator_ablations.json").read_text())["rows"]
     assert [r["ablation"] for r in rows] == ["intact", *MODULATOR_ABLATIONS]

@@ -19,9 +19,31 @@ app = typer.Typer(
     name="evodevo",
     help="Evolutionary developmental robotics: BIARM and GRN controllers, with honest baselines.",
     no_args_is_help=True,
+    rich_markup_mode=None,
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        from evodevo import __version__
+
+        typer.echo(f"evodevo {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(
+        False,
+        "--version",
+        is_eager=True,
+        callback=_show_version,
+        help="Print the version and exit.",
+    ),
+) -> None:
+    """Evolutionary developmental robotics: BIARM and GRN controllers, with honest baselines."""
 
 
 def _register() -> None:

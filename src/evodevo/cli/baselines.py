@@ -27,6 +27,7 @@ __all__ = ["app"]
 app = typer.Typer(
     help="Baselines (SPEC §4): PPO, TD3 (Stable-Baselines3), NEAT (neat-python), random, zero.",
     no_args_is_help=True,
+    rich_markup_mode=None,
 )
 
 
@@ -74,9 +75,9 @@ def kuka(
 ) -> None:
     """Train one Kuka baseline into OUT (config.json, summary.json, learning_curve.csv, model).
 
-    NEAT evaluates its genomes through the GRN's evaluator (``--workers``, ``--backend ray``);
-    PPO and TD3 train in this process (Stable-Baselines3), so ``--backend`` applies to them only
-    in ``baselines evaluate``.
+    NEAT evaluates its genomes through the GRN's evaluator (--workers, --backend ray); PPO and
+    TD3 train in this process (Stable-Baselines3), so --backend applies to them only in
+    `baselines evaluate`.
     """
     from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
     from evodevo.baselines.kuka_runner import run_baseline

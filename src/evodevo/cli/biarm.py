@@ -28,6 +28,7 @@ __all__ = ["app"]
 app = typer.Typer(
     help="BIARM: neuromodulated progressive networks (SPEC §1).",
     no_args_is_help=True,
+    rich_markup_mode=None,
     add_completion=False,
 )
 
@@ -117,7 +118,7 @@ def train(
 ) -> None:
     """Train one variant through the task sequence into OUT.
 
-    SIGINT/SIGTERM finish the current episode, write a checkpoint and stop; ``--resume``
+    SIGINT/SIGTERM finish the current episode, write a checkpoint and stop; --resume
     continues with the numbers an uninterrupted run would give.
     """
     from evodevo.neuromod.tasks import resolve_tasks

@@ -12,13 +12,33 @@ import typer
 from evodevo.errors import EvodevoError
 from evodevo.seeding import parse_seeds
 
-__all__ = ["parse_seeds", "parse_list", "check_seed"]
+__all__ = ["parse_seeds", "parse_list", "check_seed", "renamed"]
 
 
 def check_seed(option: str, seed: int | None) -> None:
     """Reject a negative seed (NumPy seeds are non-negative) before any work starts."""
     if seed is not None and seed < 0:
         raise EvodevoError(f"{option} {seed} must be >= 0 (seeds are non-negative integers)")
+
+
+def renamed(old: str, new: str, old_value: Any, new_value: Any) -> Any:
+    """The value of option ``new``, also accepted under its deprecated name ``old``.
+
+    The old name prints a one-line notice on stderr; giving both is an error.
+    """
+    if old_value is None:
+        return new_value
+    if new_value is not None:
+        raise EvodevoError(f"{old} is the old name of {new}; give {new} only")
+    typer.echo(f"warning: {old} is deprecated here; use {new} (same meaning)", err=True)
+    return old_value
+
+
+#: Help of the test options shared by ``evaluate``, ``baselines`` and ``ablate``.
+TEST_EPISODES_HELP = "Test episodes [40 = evaluation.test_episodes of the config]."
+TEST_SEED_HELP = "Seed of the fixed test episodes [10000 = evaluation.test_seed of the config]."
+OLD_EPISODES_HELP = "Deprecated name of --test-episodes."
+OLD_SEED_HELP = "Deprecated name of --test-seed."
 
 
 def parse_list(text: str | None, option: str | None = None) -> list[str] | None:
@@ -87,10 +107,10 @@ def add_evaluate_command(
 
     def evaluate(
         run_dir: Path = typer.Argument(..., help=run_help),
-        episodes: int | None = typer.Option(None, help="Test episodes [40]."),
+        test_episodes: int | None = typer.Option(None, help=TEST_EPISODES_HELP),
         objects: str = typer.Option("test", help="test (held-out objects) or train."),
         noise: float = typer.Option(0.0, help=noise_help),
-        seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+        test_seed: int | None = typer.Option(None, help=TEST_SEED_HELP),
         workers: int = typer.Option(1, help="Worker processes or Ray actors."),
         backend: str = typer.Option("local", help=BACKEND_HELP),
         address: str | None = typer.Option(None, help=ADDRESS_HELP),
@@ -103,13 +123,19 @@ def add_evaluate_command(
             None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
         ),
         as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
+        old_episodes: int | None = typer.Option(
+            None, "--episodes", hidden=True, help=OLD_EPISODES_HELP
+        ),
+        old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
     ) -> None:
         from evodevo.grn.evaluation import evaluate_run
         from evodevo.parallel import set_single_thread
 
+        episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
+        seed = renamed("--seed", "--test-seed", old_seed, test_seed)
         set_single_thread()
         check_backend(backend, address, workers)
-        check_seed("--seed", seed)
+        check_seed("--test-seed", seed)
         if check_run is not None:
             check_run(run_dir)
         res = evaluate_run(

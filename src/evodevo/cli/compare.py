@@ -15,7 +15,9 @@ from evodevo.errors import EvodevoError
 __all__ = ["app"]
 
 app = typer.Typer(
-    help="Comparison tables across methods (thesis Tables 3.2/3.5 and 4.2).", no_args_is_help=True
+    help="Comparison tables across methods (thesis Tables 3.2/3.5 and 4.2).",
+    no_args_is_help=True,
+    rich_markup_mode=None,
 )
 
 

@@ -14,11 +14,16 @@ import typer
 from evodevo.cli.common import (
     ADDRESS_HELP,
     BACKEND_HELP,
+    OLD_EPISODES_HELP,
+    OLD_SEED_HELP,
+    TEST_EPISODES_HELP,
+    TEST_SEED_HELP,
     add_evaluate_command,
     check_backend,
     check_seed,
     format_rate,
     parse_list,
+    renamed,
 )
 from evodevo.errors import EvodevoError
 
@@ -27,6 +32,7 @@ __all__ = ["app"]
 app = typer.Typer(
     help="GRN controller (thesis Chapter 4): evolve, evaluate, ablate, plot, video.",
     no_args_is_help=True,
+    rich_markup_mode=None,
 )
 
 
@@ -138,10 +144,14 @@ add_evaluate_command(
 def baselines(
     out: Path = typer.Option(..., "--out", help="JSON file to write (+ _episodes.csv beside it)."),
     config: Path | None = typer.Option(None, "--config", help="YAML config (env, test seed)."),
-    episodes: int | None = typer.Option(None, help="Test episodes [40]."),
+    test_episodes: int | None = typer.Option(None, help=TEST_EPISODES_HELP),
     objects: str = typer.Option("test", help="test or train objects."),
-    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+    test_seed: int | None = typer.Option(None, help=TEST_SEED_HELP),
     workers: int = typer.Option(1, help="Worker processes."),
+    old_episodes: int | None = typer.Option(
+        None, "--episodes", hidden=True, help=OLD_EPISODES_HELP
+    ),
+    old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
     policies: str | None = typer.Option(
         None,
         help="Comma-separated trivial policies [zero,random,turn]; policies already in --out "
@@ -157,8 +167,10 @@ def baselines(
     from evodevo.grn.evaluation import evaluate_baselines
     from evodevo.parallel import set_single_thread
 
+    episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
+    seed = renamed("--seed", "--test-seed", old_seed, test_seed)
     set_single_thread()
-    check_seed("--seed", seed)
+    check_seed("--test-seed", seed)
     names = parse_list(policies, "--policies")
     res = evaluate_baselines(
         load_config(GrnConfig, config), out, episodes, objects, seed, workers, policies=names
@@ -170,10 +182,16 @@ def baselines(
 @app.command()
 def ablate(
     run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
-    episodes: int | None = typer.Option(None, help="Test episodes per ablation [40]."),
+    test_episodes: int | None = typer.Option(
+        None, help="Test episodes per ablation [40 = evaluation.test_episodes of the config]."
+    ),
     objects: str = typer.Option("test", help="test or train objects."),
-    seed: int | None = typer.Option(None, help="Test seed [evaluation.test_seed]."),
+    test_seed: int | None = typer.Option(None, help=TEST_SEED_HELP),
     workers: int = typer.Option(1, help="Worker processes."),
+    old_episodes: int | None = typer.Option(
+        None, "--episodes", hidden=True, help=OLD_EPISODES_HELP
+    ),
+    old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
     modulators: bool = typer.Option(
         False, "--modulators", help="Neuromodulated GRN: set each gamma to 0 instead (SPEC §5)."
     ),
@@ -184,8 +202,10 @@ def ablate(
     from evodevo.parallel import set_single_thread
     from evodevo.runs import RunDir
 
+    episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
+    seed = renamed("--seed", "--test-seed", old_seed, test_seed)
     set_single_thread()
-    check_seed("--seed", seed)
+    check_seed("--test-seed", seed)
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     if modulators:

@@ -15,7 +15,11 @@ from evodevo.errors import EvodevoError
 
 __all__ = ["app", "cli_markdown", "config_markdown", "CONFIGS"]
 
-app = typer.Typer(help="Print reference pages generated from the code.", no_args_is_help=True)
+app = typer.Typer(
+    help="Print reference pages generated from the code.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
 
 #: (title, "module:Class") of every experiment config documented in docs/configuration.md.
 CONFIGS = [

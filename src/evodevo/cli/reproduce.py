@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from evodevo.cli.common import check_seed
+from evodevo.cli.common import check_seed, renamed
 
 __all__ = ["reproduce"]
 
@@ -17,7 +17,7 @@ def reproduce(
         "quick", help="quick (about 10 minutes) or thesis (the full protocol)."
     ),
     config: Path | None = typer.Option(None, "--config", help="YAML budget replacing the preset."),
-    seed: int = typer.Option(0, help="Offset added to every seed of the budget."),
+    seed_offset: int = typer.Option(0, help="Offset added to every seed of the budget."),
     workers: int | None = typer.Option(None, help="Worker processes per step [budget's, 2]."),
     report_only: bool = typer.Option(
         False, "--report-only", help="Only rewrite the report from saved runs."
@@ -33,13 +33,17 @@ def reproduce(
         "--plan",
         help="List the steps with their status (done, in progress, to do); run none.",
     ),
+    old_seed: int | None = typer.Option(
+        None, "--seed", hidden=True, help="Deprecated name of --seed-offset."
+    ),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
     from evodevo.parallel import set_single_thread
     from evodevo.reproduce import run_reproduce
 
+    seed = renamed("--seed", "--seed-offset", old_seed, seed_offset or None) or 0
     set_single_thread()
-    check_seed("--seed", seed)
+    check_seed("--seed-offset", seed)
     run_reproduce(
         budget=budget,
         out=out,
