@@ -205,3 +205,61 @@ class NeatPolicy:
 
 
 __all__ += ["neat_config"]
+
+
+_CALIBRATIONS: dict[str, Any] = {}
+
+
+def blob_frontend(env_id: str, env_kwargs: dict[str, Any]) -> Any:
+    """The blob front-end calibrated for ``env_id`` (once per process; SPEC §2.2)."""
+    from evodevo.grn.frontends import BlobLocaliser
+
+    key = f"{env_id}|{sorted(env_kwargs.items())!r}"
+    if key not in _CALIBRATIONS:
+        _CALIBRATIONS[key] = BlobLocaliser.calibrate(env_id, env_kwargs)
+    return _CALIBRATIONS[key]
+
+
+class ScriptedPolicy:
+    """The hand-written image-only reference policy of SPEC §2.5 (no learning).
+
+    The blob front-end of :mod:`evodevo.grn.frontends` finds, on the first 48×48 frame, the blob
+    nearest the gripper against the empty tray and maps its centroid to the table through the
+    camera's view and projection matrices; on every step the policy moves the gripper towards it
+    by at most one action unit, ``(clip(dx, −1, 1), clip(dy, −1, 1), −1)``, and turns the gripper
+    like the constant-turn policy. With no blob it *is* the constant turn. It reads the raw image
+    (``uses_image``) and ignores the visual-noise flag.
+    """
+
+    uses_encoder = False
+    uses_image = True
+
+    def __init__(self, config: Any, n_actions: int) -> None:
+        self.n_actions = int(n_actions)
+        if self.n_actions != 3:
+            raise CheckpointError(
+                f"the scripted policy drives (dx, dy, d-angle), 3 actions; the env has "
+                f"{self.n_actions} (use the Kuka env with its height hack)"
+            )
+        self.frontend = blob_frontend(config.env.id, dict(config.env.kwargs))
+
+    def reset_state(self, genomes: Sequence[Any]) -> Any:
+        return self.frontend.reset(len(genomes))
+
+    def step(
+        self,
+        state: Any,
+        idx: np.ndarray,
+        features: np.ndarray | None,
+        proprio: np.ndarray,
+        rngs: Sequence[np.random.Generator],
+        noisy: np.ndarray,
+    ) -> np.ndarray:
+        f = self.frontend.encode(features, proprio, state, idx)
+        a = np.zeros((len(idx), 3))
+        a[:, :2] = np.clip(f[:, :2], -1.0, 1.0)
+        a[:, 2] = -1.0
+        return a
+
+
+__all__ += ["ScriptedPolicy", "blob_frontend"]

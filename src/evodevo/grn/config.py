@@ -52,7 +52,10 @@ class DynamicsConfig:
     n_genes: int = doc(50, "number of genes n")
     x0: float = doc(0.3, "initial expression x(0) of every gene")
     dt: float = doc(0.05, "Euler time step of the expression update")
-    noise_std: float = doc(0.01, "std of the expression noise eta_i added each step")
+    noise_std: float = doc(0.01, "std of the expression noise eta_i added each Euler step")
+    substeps: int = doc(
+        1, "Euler updates of the expression per control step (thesis: 1; SPEC §2.1 time scale)"
+    )
 
     def validate(self) -> None:
         _check_range("n_genes", self.n_genes, 1)
@@ -60,15 +63,23 @@ class DynamicsConfig:
         if self.dt <= 0:
             raise ConfigError(f"dt={self.dt!r} must be positive")
         _check_range("noise_std", self.noise_std, 0.0)
+        _check_range("substeps", self.substeps, 1)
 
 
 @dataclass
 class SensorConfig:
     """The sensor vector s = [visual(4), proprio(4)] (SPEC §2.2)."""
 
-    n_visual: int = doc(4, "visual features after the evolved projection P (128 -> n_visual)")
+    encoder: str = doc(
+        "cnn",
+        "visual front-end: cnn (the thesis' fixed random CNN) | blob (object localiser from the "
+        "image: target dx, dy relative to the gripper, size, found)",
+    )
+    n_visual: int = doc(
+        4, "visual features after the evolved projection P (feature_dim -> n_visual)"
+    )
     n_proprio: int = doc(4, "proprioceptive values read from info['proprio']")
-    feature_dim: int = doc(128, "CNN encoder output size (32 channels x 2 x 2)")
+    feature_dim: int = doc(128, "front-end output size: 128 for cnn (32 x 2 x 2), 4 for blob")
     blind: bool = doc(False, "replace the visual features by zeros (the blind-GRN control, §2.5)")
     vector_range: tuple[float, float] = doc(
         (-1.0, 1.0),
@@ -80,9 +91,13 @@ class SensorConfig:
         _check_range("n_visual", self.n_visual, 0)
         _check_range("n_proprio", self.n_proprio, 0)
         _check_bounds("vector_range", self.vector_range)
-        if self.feature_dim != 128:
+        from evodevo.grn.frontends import frontend_dim
+
+        want = frontend_dim(self.encoder)
+        if self.feature_dim != want:
             raise ConfigError(
-                f"feature_dim={self.feature_dim} is fixed to 128 by the encoder of SPEC §2.2"
+                f"feature_dim={self.feature_dim} must be {want} for sensors.encoder="
+                f"{self.encoder!r} (SPEC §2.2)"
             )
 
 
@@ -95,6 +110,10 @@ class GenomeInitConfig:
     wr_density: float = doc(0.2, "probability that a regulatory entry is present at init")
     wm_std: float = doc(0.2, "W_m ~ N(0, wm_std^2)")
     p_std: float = doc(1.0, "P ~ N(0, p_std^2) (encoder output has unit L2 norm)")
+    p_init: str = doc(
+        "normal",
+        "normal: P ~ N(0, p_std^2); identity: P = I (needs feature_dim == n_visual, e.g. blob)",
+    )
     theta_init: tuple[float, float] = doc((0.2, 0.8), "theta ~ U(low, high) at init")
     delta_init: tuple[float, float] = doc((0.1, 0.9), "delta ~ U(low, high) at init")
     alpha_init: tuple[float, float] = doc((0.5, 2.0), "alpha ~ U(low, high) at init")
@@ -106,6 +125,8 @@ class GenomeInitConfig:
         for key in ("ws_std", "wr_std", "wm_std", "p_std"):
             _check_range(key, getattr(self, key), 0.0)
         _check_range("wr_density", self.wr_density, 0.0, 1.0)
+        if self.p_init not in ("normal", "identity"):
+            raise ConfigError(f"p_init={self.p_init!r} must be normal or identity")
         for name in ("theta", "delta", "alpha"):
             init = getattr(self, f"{name}_init")
             bounds = getattr(self, f"{name}_bounds")
@@ -182,6 +203,12 @@ class EvaluationConfig:
     test_episodes: int = doc(40, "episodes of the test (fixed seeds)")
     test_seed: int = doc(10_000, "seed of the fixed test episodes (independent of the run seed)")
     lockstep: int = doc(4, "episodes one worker steps together (one encoder batch per env step)")
+    distance_weight: float = doc(
+        0.0,
+        "shaped training fitness: subtract weight x mean over episodes of the gripper-to-nearest-"
+        "object distance at the episode's end (units of 5 cm, capped at 20 cm), read from the "
+        "simulator during training only (0 = Eq. 4.6 alone, the thesis)",
+    )
 
     def validate(self) -> None:
         _check_range("episodes", self.episodes, 1)
@@ -189,6 +216,7 @@ class EvaluationConfig:
         _check_range("visual_noise", self.visual_noise, 0.0)
         _check_range("test_episodes", self.test_episodes, 1)
         _check_range("lockstep", self.lockstep, 1)
+        _check_range("distance_weight", self.distance_weight, 0.0)
 
 
 @dataclass
@@ -319,3 +347,8 @@ class GrnConfig:
                     f"controller={self.controller!r} is not known; choose one of "
                     f"{controller_names()} or give 'module:attr'"
                 )
+        if self.genome.p_init == "identity" and self.sensors.feature_dim != self.sensors.n_visual:
+            raise ConfigError(
+                f"genome.p_init=identity needs sensors.feature_dim ({self.sensors.feature_dim}) "
+                f"== sensors.n_visual ({self.sensors.n_visual})"
+            )

@@ -147,7 +147,14 @@ class PlainGrnController:
         return mutate_genome(genome, self.config, rng)
 
     def load_genome(self, path: str | Path) -> GrnGenome:
-        return GrnGenome.load(path, self.n_sensors, self.n_actions, self.sensors.n_visual)
+        return GrnGenome.load(
+            path,
+            self.n_sensors,
+            self.n_actions,
+            self.sensors.n_visual,
+            frontend=self.sensors.encoder,
+            feature_dim=self.sensors.feature_dim,
+        )
 
     def connections(self, genome: GrnGenome) -> int:
         return genome.connections()
@@ -156,6 +163,14 @@ class PlainGrnController:
         g = GrnGenome(**{n: arrays[n] for n in GrnGenome.names()})
         g.check(self.n_sensors, self.n_actions, self.sensors.n_visual)
         return g
+
+    def expression_noise(self, rngs: Sequence[np.random.Generator], n_genes: int) -> np.ndarray:
+        """Expression noise eta (len(rngs), n) for one more Euler substep, per slot generator."""
+        eta = np.zeros((len(rngs), n_genes))
+        if self.dyn.noise_std > 0:
+            for b, rng in enumerate(rngs):
+                eta[b] = rng.normal(0.0, self.dyn.noise_std, n_genes)
+        return eta
 
     def reset_state(self, genomes: Sequence[GrnGenome]) -> GrnState:
         for g in genomes:
@@ -200,18 +215,22 @@ class PlainGrnController:
         noisy: np.ndarray,
     ) -> np.ndarray:
         g = state.genome
-        s, eta = self.sense(g.P[idx], state.x.shape[1], features, proprio, rngs, noisy)
-        x = expression_step(
-            state.x[idx],
-            s,
+        n_genes = state.x.shape[1]
+        s, eta = self.sense(g.P[idx], n_genes, features, proprio, rngs, noisy)
+        W_s, W_r, theta, delta, alpha = (
             g.W_s[idx],
             g.W_r[idx],
             g.theta[idx],
             g.delta[idx],
             g.alpha[idx],
-            self.dyn.dt,
-            eta,
         )
+        x = state.x[idx]
+        # SPEC §2.1 time scale: ``substeps`` Euler updates on the same input before the read-out;
+        # the first uses the eta drawn by sense (so substeps = 1 is the thesis step bit for bit).
+        for k in range(self.dyn.substeps):
+            if k:
+                eta = self.expression_noise(rngs, n_genes)
+            x = expression_step(x, s, W_s, W_r, theta, delta, alpha, self.dyn.dt, eta)
         state.x[idx] = x
         return motor_output(x, g.W_m[idx])
 
@@ -274,13 +293,22 @@ class TurnPolicy(ZeroPolicy):
         return a
 
 
-BASELINES: dict[str, type[ZeroPolicy]] = {
+def _scripted(config: Any, n_actions: int) -> Any:
+    from evodevo.baselines.policies import ScriptedPolicy
+
+    return ScriptedPolicy(config, n_actions)
+
+
+BASELINES: dict[str, Callable[[Any, int], Any]] = {
     "zero": ZeroPolicy,
     "random": RandomPolicy,
     "turn": TurnPolicy,
+    "scripted": _scripted,
 }
-"""The trivial policies measured beside every result (SPEC §2.5): all-zero, uniform random, and
-the constant "turn the gripper" action (last action dimension -1)."""
+"""The reference policies measured beside every result (SPEC §2.5): all-zero, uniform random,
+the constant "turn the gripper" action (last action dimension -1), and the scripted image-only
+pipeline (:class:`evodevo.baselines.policies.ScriptedPolicy`: blob nearest the gripper on the
+first frame, move over it, turn)."""
 
 _REGISTRY: dict[str, Callable[..., Any] | str] = {
     "plain": PlainGrnController,

@@ -25,6 +25,7 @@ from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import BASELINES, make_controller
 from evodevo.grn.encoder import Encoder
 from evodevo.grn.evaluator import Episode, EpisodeResults, Evaluator
+from evodevo.grn.frontends import load_frontend
 from evodevo.runs import RunDir, machine_info, write_json
 from evodevo.seeding import derive
 from evodevo.stats import rate
@@ -38,7 +39,7 @@ class LoadedRun:
 
     run: RunDir
     config: GrnConfig
-    encoder: Encoder
+    encoder: Encoder | Any
     genome: Any
     kind: str
 
@@ -65,7 +66,7 @@ def load_run(path: str | Path) -> LoadedRun:
             f"{str(run.path)!r} holds a {saved.get('kind')!r} run, not a GRN run (evodevo grn evolve)"
         )
     config = from_dict(GrnConfig, saved["config"])
-    encoder = Encoder.load(run / "encoder.pt")
+    encoder = load_frontend(config, run.path)
     from evodevo.grn.evaluator import action_dims, make_env
 
     env = make_env(config.env.id, config.env.kwargs)

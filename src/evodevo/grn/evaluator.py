@@ -38,6 +38,7 @@ import numpy as np
 
 from evodevo.errors import EvodevoError, env_module_error
 from evodevo.grn.encoder import Encoder
+from evodevo.grn.frontends import encode, frontend_name
 from evodevo.parallel import make_pool
 from evodevo.seeding import derive
 
@@ -79,6 +80,8 @@ class EpisodeResults:
     success: np.ndarray
     steps: np.ndarray
     wall_s: float = 0.0
+    distance: np.ndarray | None = None
+    """Gripper-to-nearest-object distance (m) at the end, when measured (training shaping)."""
 
     @property
     def success_rate(self) -> np.ndarray:
@@ -176,6 +179,23 @@ def _proprio(info: dict[str, Any], n: int) -> np.ndarray:
     return p
 
 
+def grasp_distance(env: gym.Env[Any, Any]) -> float:
+    """Horizontal distance (m) from the gripper to the nearest object, read from the simulator.
+
+    For the shaped *training* fitness only (SPEC §2.4, ``evaluation.distance_weight``); NaN
+    when the env is not the Kuka port.
+    """
+    u: Any = env.unwrapped
+    arm, uids = getattr(u, "_arm", None), getattr(u, "_object_uids", None)
+    if arm is None or not uids:
+        return float("nan")
+    import pybullet as p
+
+    ee = np.asarray(arm.end_effector_position()[:2])
+    pos = [p.getBasePositionAndOrientation(uid, physicsClientId=u._cid)[0] for uid in uids]
+    return float(min(np.hypot(*(np.asarray(q[:2]) - ee)) for q in pos))
+
+
 def _vector_range(policy: Any) -> tuple[float, float]:
     sensors = getattr(getattr(policy, "config", None), "sensors", None)
     return tuple(sensors.vector_range) if sensors is not None else (-1.0, 1.0)  # type: ignore[return-value]
@@ -183,19 +203,22 @@ def _vector_range(policy: Any) -> tuple[float, float]:
 
 def run_episodes(
     envs: Sequence[gym.Env[Any, Any]],
-    encoder: Encoder | None,
+    encoder: Any,
     policy: Any,
     genomes: Sequence[Any],
     episodes: Sequence[Episode],
     n_proprio: int = 4,
     record: bool = False,
     vector_range: tuple[float, float] | None = None,
+    measure_distance: bool = False,
 ) -> dict[str, Any]:
     """Run ``len(episodes)`` episodes in lockstep, slot b driving ``envs[b]`` with ``genomes[b]``.
 
     Args:
         vector_range: for vector-observation envs, the range the observation is scaled to
             (default: the policy's ``config.sensors.vector_range``, else [-1, 1]).
+        measure_distance: also return ``distance``, the gripper-to-nearest-object distance at
+            each episode's end (:func:`grasp_distance`; training shaping only).
 
     Returns:
         ``{"reward", "success", "steps"}`` arrays of length B, and with ``record`` the per-step
@@ -230,6 +253,9 @@ def run_episodes(
     rngs = [np.random.default_rng(ep.noise_seed) for ep in episodes]
     noisy = np.array([ep.noisy for ep in episodes])
     state = policy.reset_state(list(genomes))
+    use_encoder = policy.uses_encoder and encoder is not None and not vector
+    fstate = encoder.reset(n_b) if use_encoder and hasattr(encoder, "reset") else None
+    distance = np.full(n_b, np.nan)
     reward = np.zeros(n_b)
     success = np.zeros(n_b, dtype=bool)
     steps = np.zeros(n_b, dtype=int)
@@ -239,8 +265,7 @@ def run_episodes(
         trace["frames"].append(obs_arr.copy())
     while active.any():
         idx = np.flatnonzero(active)
-        use_encoder = policy.uses_encoder and encoder is not None and not vector
-        feats = encoder.features(obs_arr[idx]) if use_encoder else None  # type: ignore[union-attr]
+        feats = encode(encoder, obs_arr[idx], prop_arr[idx], fstate, idx) if use_encoder else None
         if getattr(policy, "uses_image", False):  # e.g. an SB3 CNN policy: the raw observations
             feats = obs_arr[idx]
         actions = policy.step(state, idx, feats, prop_arr[idx], [rngs[i] for i in idx], noisy[idx])
@@ -259,6 +284,8 @@ def run_episodes(
             if term or trunc:
                 active[slot] = False
                 success[slot] = bool(info.get("is_success", float(r) > 0))
+                if measure_distance:
+                    distance[slot] = grasp_distance(env)
         if observe is not None:
             observe(state, idx, step_r)
         if record:
@@ -268,6 +295,8 @@ def run_episodes(
             trace["actions"].append(np.array(actions, copy=True))
             trace["frames"].append(obs_arr.copy())
     out: dict[str, Any] = {"reward": reward, "success": success, "steps": steps}
+    if measure_distance:
+        out["distance"] = distance
     if record:
         out.update(trace)
     return out
@@ -277,7 +306,7 @@ def run_episodes(
 class _WorkerContext:
     env_id: str
     env_kwargs: dict[str, Any]
-    encoder: Encoder | None
+    encoder: Any
     envs: dict[bool, list[gym.Env[Any, Any]]] = field(default_factory=dict)
     policies: dict[str, Any] = field(default_factory=dict)
 
@@ -299,11 +328,13 @@ class _WorkerContext:
 _CONTEXTS: dict[str, _WorkerContext] = {}
 
 
-def _init_worker(
-    key: str, env_id: str, env_kwargs: dict[str, Any], encoder_state: dict[str, Any] | None
-) -> None:
-    """Worker initializer: build the encoder once; environments are made on first use."""
-    encoder = Encoder(encoder_state) if encoder_state is not None else None
+def _init_worker(key: str, env_id: str, env_kwargs: dict[str, Any], encoder_state: Any) -> None:
+    """Worker initializer: build the front-end once; environments are made on first use.
+
+    ``encoder_state`` is the CNN's weights (a dict), another front-end object (picklable, e.g.
+    the blob localiser with its calibration), or None.
+    """
+    encoder = Encoder(encoder_state) if isinstance(encoder_state, dict) else encoder_state
     _CONTEXTS[key] = _WorkerContext(env_id, dict(env_kwargs), encoder)
 
 
@@ -316,6 +347,7 @@ class _Task:
     baseline: str | None
     genomes: list[Any]
     episodes: list[Episode]
+    measure_distance: bool = False
 
 
 def _run_task(task: _Task) -> dict[str, np.ndarray]:
@@ -333,6 +365,8 @@ def _run_task(task: _Task) -> dict[str, np.ndarray]:
         by_objects.setdefault(ep.test_objects, []).append(i)
     n = len(task.episodes)
     out = {"reward": np.zeros(n), "success": np.zeros(n, bool), "steps": np.zeros(n, int)}
+    if task.measure_distance:
+        out["distance"] = np.full(n, np.nan)
     for test_objects, ids in by_objects.items():
         envs = ctx.get_envs(test_objects, len(ids))
         res = run_episodes(
@@ -342,6 +376,7 @@ def _run_task(task: _Task) -> dict[str, np.ndarray]:
             [task.genomes[i] for i in ids],
             [task.episodes[i] for i in ids],
             n_proprio=task.config.sensors.n_proprio,
+            measure_distance=task.measure_distance,
         )
         for k in out:
             out[k][ids] = res[k]
@@ -359,6 +394,21 @@ def _check_sensors(config: Any, space: gym.Space[Any]) -> None:
             f"sensor vector; set sensors.n_visual: 0 and sensors.n_proprio: {dim} "
             f"(now {sens.n_visual} and {sens.n_proprio})"
         )
+
+
+def _check_frontend(config: Any, encoder: Any, space: gym.Space[Any]) -> None:
+    """Before any episode: the front-end is the config's and can read this observation."""
+    if encoder is None or is_vector_observation(space):
+        return
+    want, have = config.sensors.encoder, frontend_name(encoder)
+    if want != have:
+        raise EvodevoError(
+            f"the config asks for the visual front-end {want!r} but the evaluator was given "
+            f"{have!r}; a run's genomes only run with the front-end they were evolved with"
+        )
+    check = getattr(encoder, "check_images", None)
+    if check is not None and space.shape is not None:
+        check(np.zeros((1, *space.shape), dtype=space.dtype))
 
 
 def _shape_key(genome: Any) -> tuple[Any, ...]:
@@ -383,7 +433,7 @@ class Evaluator:
     def __init__(
         self,
         config: Any,
-        encoder: Encoder | None,
+        encoder: Any,
         workers: int = 1,
         max_retries: int = 1,
         backend: str = "local",
@@ -396,9 +446,12 @@ class Evaluator:
             self.action_space = probe.action_space
             self.n_actions = action_dims(probe.action_space)
             _check_sensors(config, probe.observation_space)
+            _check_frontend(config, encoder, probe.observation_space)
         finally:
             probe.close()
-        state = {k: v.clone() for k, v in encoder.weights().items()} if encoder else None
+        state: Any = encoder
+        if isinstance(encoder, Encoder):
+            state = {k: v.clone() for k, v in encoder.weights().items()}
         # backend "local": in-process or a process pool; "ray": Ray actors (issue 5). Either
         # way each worker builds its environments once and the results are the same.
         self.pool = make_pool(
@@ -432,6 +485,7 @@ class Evaluator:
         episodes: Sequence[Episode],
         config: Any | None = None,
         baseline: str | None = None,
+        measure_distance: bool = False,
     ) -> EpisodeResults:
         """Run every genome on every episode.
 
@@ -441,6 +495,8 @@ class Evaluator:
             config: a config overriding the evaluator's (e.g. an ablation without noise).
             baseline: a trivial policy of BASELINES ("zero", "random", "turn") to run instead
                 (genomes may be [None]).
+            measure_distance: also measure the gripper-to-object distance at each episode's end
+                (``EpisodeResults.distance``; the shaped training fitness).
 
         Returns:
             (len(genomes), len(episodes)) arrays.
@@ -472,17 +528,22 @@ class Evaluator:
                     baseline,
                     [genomes[g] for g, _ in chunk],
                     [episodes[e] for _, e in chunk],
+                    measure_distance,
                 )
             )
         t0 = time.perf_counter()
         results = self.pool.map(_run_task, tasks)
         shape = (len(genomes), len(episodes))
         out = EpisodeResults(np.zeros(shape), np.zeros(shape, bool), np.zeros(shape, int))
+        if measure_distance:
+            out.distance = np.full(shape, np.nan)
         for chunk, res in zip(chunks, results, strict=True):
             for j, (g, e) in enumerate(chunk):
                 out.reward[g, e] = res["reward"][j]
                 out.success[g, e] = res["success"][j]
                 out.steps[g, e] = res["steps"][j]
+                if out.distance is not None:
+                    out.distance[g, e] = res["distance"][j]
         out.wall_s = time.perf_counter() - t0
         self.episodes_run += out.reward.size
         self.env_steps += out.env_steps

@@ -29,9 +29,9 @@ import numpy as np
 
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
-from evodevo.grn.encoder import Encoder
 from evodevo.grn.evaluator import Episode, Evaluator
-from evodevo.grn.fitness import fitness_matrix
+from evodevo.grn.fitness import distance_penalty, fitness_matrix
+from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.selection import rank, tournament
 from evodevo.runs import RunDir, machine_info
@@ -160,8 +160,11 @@ class Evolution:
             cfg.evaluation.episodes,
             cfg.evaluation.noisy_fraction,
         )
-        res = self.evaluator.evaluate(self.population, episodes)
+        weight = float(getattr(cfg.evaluation, "distance_weight", 0.0))
+        res = self.evaluator.evaluate(self.population, episodes, measure_distance=weight > 0)
         fit = fitness_matrix(res.reward, res.success)
+        if weight > 0 and res.distance is not None:
+            fit = fit - weight * distance_penalty(res.distance)
         succ = res.success_rate
         order = rank(fit)
         best = int(order[0])
@@ -386,15 +389,15 @@ def evolve_run(
         resume = False
     if resume:
         _check_same_config(run, config, cfg_dict)
-        encoder = Encoder.load(run / "encoder.pt")
+        encoder = load_frontend(config, run.path)
     else:
         if ckpt.is_file():
             raise EvodevoError(
                 f"{str(run.path)!r} already holds a run; pass --resume to continue it or choose "
                 "another --out"
             )
-        encoder = Encoder.from_seed(config.seed)
-        encoder.save(run / "encoder.pt")
+        encoder = make_frontend(config)
+        save_frontend(encoder, run.path)
         run.write_config(cfg_dict, kind="grn")
     with (
         GracefulStop() as stop,

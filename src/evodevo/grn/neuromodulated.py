@@ -266,6 +266,9 @@ class NeuromodGrnController(PlainGrnController):
         genome.check(self.n_sensors, self.n_actions, self.sensors.n_visual, self.mod.hidden, where)
 
     def load_genome(self, path: str | Path) -> NeuromodGrnGenome:  # type: ignore[override]  # a kind's genome type is its own
+        from evodevo.grn.genome import check_frontend, load_arrays
+
+        check_frontend(load_arrays(path, NeuromodGrnGenome.KIND)[1], self.sensors.encoder, path)
         g = NeuromodGrnGenome.load(path)
         self._check(g, str(path))
         return g
@@ -337,17 +340,18 @@ class NeuromodGrnController(PlainGrnController):
         s, eta = self.sense(base.P[idx], state.x.shape[1], features, proprio, rngs, noisy)
         m = self.update_modulators(state, idx, s)
         gam = g.gamma[idx]
-        x = expression_step(
-            state.x[idx],
-            s,
-            base.W_s[idx],
-            modulated_regulation(base.W_r[idx], m[:, NE], m[:, ACH], gam[:, NE], gam[:, ACH]),
-            modulated_threshold(base.theta[idx], m[:, SHT], gam[:, SHT]),
-            modulated_decay(base.delta[idx], m[:, DA], gam[:, DA]),
-            base.alpha[idx],
-            self.dyn.dt,
-            eta,
-        )
+        W_r = modulated_regulation(base.W_r[idx], m[:, NE], m[:, ACH], gam[:, NE], gam[:, ACH])
+        theta = modulated_threshold(base.theta[idx], m[:, SHT], gam[:, SHT])
+        delta = modulated_decay(base.delta[idx], m[:, DA], gam[:, DA])
+        x = state.x[idx]
+        # SPEC §2.1 substeps: the modulators move once per control step (Eq. 3.1's time scale),
+        # the expression ``substeps`` times under them (1 = the plain Eq. 5.x step).
+        for k in range(self.dyn.substeps):
+            if k:
+                eta = self.expression_noise(rngs, state.x.shape[1])
+            x = expression_step(
+                x, s, base.W_s[idx], W_r, theta, delta, base.alpha[idx], self.dyn.dt, eta
+            )
         state.x[idx] = x
         state.novelty[idx] *= self.mod.novelty_decay  # Eq. 3.5, after the step
         return motor_output(x, base.W_m[idx])
