@@ -8,9 +8,35 @@ Two methods from the thesis (``../shared/reference/thesis.txt``), specified in S
 Shared pieces: :mod:`evodevo.config` (typed YAML configs), :mod:`evodevo.runs` (run directories),
 :mod:`evodevo.stats` (intervals and tests), :mod:`evodevo.parallel` (worker pools),
 :mod:`evodevo.envs` (the Gymnasium port of KukaDiverseObjectEnv, SPEC §3).
+
+Acting with a trained run (:mod:`evodevo.policy`)::
+
+    policy = evodevo.load("runs/quick/grn/plain_s0")
+    policy.reset()
+    action = policy.predict(obs, info)
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["EvodevoError", "__version__"]
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from evodevo.policy import Policy
+
+__all__ = ["EvodevoError", "__version__", "load"]
 __version__ = "0.1.0"
+
+
+def load(run_dir: str | Path, task: int | str | None = None) -> Policy:
+    """The trained policy of a run directory: ``policy.reset()``, ``policy.predict(obs, info)``.
+
+    GRN, neuromodulated GRN and Kuka baseline runs; for a BIARM run, ``task`` picks the column
+    (index or Gymnasium id). See :mod:`evodevo.policy`.
+    """
+    from evodevo.policy import load as _load
+
+    return _load(run_dir, task)
