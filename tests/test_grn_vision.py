@@ -201,3 +201,36 @@ def test_camera_model_is_the_envs_camera():
     fe = _fe()
     np.testing.assert_allclose(fe.view, view, atol=1e-6)
     np.testing.assert_allclose(fe.proj, proj, atol=1e-6)
+
+
+def test_the_vision_yaml_is_the_default_preset():
+    from evodevo.config import to_dict
+    from evodevo.grn.config import vision_preset
+
+    assert to_dict(_vision_cfg()) == to_dict(load_config(GrnConfig, None, vision_preset()))
+    # the thesis file is the thesis defaults, unchanged
+    assert to_dict(load_config(GrnConfig, ROOT / "configs" / "grn.yaml")) == to_dict(GrnConfig())
+
+
+def test_smoke_evolution_with_the_default_preset_through_the_cli(tmp_path):
+    """`grn evolve` without --config is the vision preset (2 genomes x 1 episode x 1 gen)."""
+    pytest.importorskip("pybullet")
+    import json
+
+    from typer.testing import CliRunner
+
+    from evodevo.cli import app
+
+    out = tmp_path / "run"
+    args = ["grn", "evolve", "--population", "2", "--generations", "1", "--episodes", "1"]
+    res = CliRunner().invoke(app, [*args, "--quiet", "--out", str(out)])
+    assert res.exit_code == 0, (res.output, res.exception)
+    saved = json.loads((out / "config.json").read_text())["config"]
+    assert saved["sensors"]["encoder"] == "blob" and saved["dynamics"]["substeps"] == 20
+    assert (out / "frontend.npz").is_file() and not (out / "encoder.pt").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["episodes_run"] == 2
+    from evodevo.grn.evaluation import load_run
+
+    loaded = load_run(out)
+    assert loaded.encoder.name == "blob" and loaded.genome.P.shape == (4, 4)

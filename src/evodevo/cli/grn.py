@@ -80,7 +80,12 @@ def evolve(
     episodes: int | None = typer.Option(None, help="Episodes per evaluation [10]."),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
     seed: int | None = typer.Option(None, help="Run seed [0]."),
-    config: Path | None = typer.Option(None, "--config", help="YAML config (configs/grn.yaml)."),
+    config: Path | None = typer.Option(
+        None,
+        "--config",
+        help="YAML config [the vision preset, configs/grn_vision.yaml]; configs/grn.yaml is the "
+        "thesis protocol.",
+    ),
     controller: str | None = typer.Option(None, help="Controller kind [plain]."),
     blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
     open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
@@ -108,6 +113,10 @@ def evolve(
     if resume and config is None:
         saved = read_json(out / "config.json").get("config", {})
         cfg = load_config(GrnConfig, None, _merge(saved, ov))
+    elif config is None:  # the default preset sees (issue 22); --config configs/grn.yaml: thesis
+        from evodevo.grn.config import vision_preset
+
+        cfg = load_config(GrnConfig, None, _merge(vision_preset(), ov))
     else:
         cfg = load_config(GrnConfig, config, ov)
     if cfg.controller == "open_loop" and cfg.sensors.blind:
@@ -154,11 +163,13 @@ def baselines(
     old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
     policies: str | None = typer.Option(
         None,
-        help="Comma-separated trivial policies [zero,random,turn]; policies already in --out "
+        help="Comma-separated reference policies [zero,random,turn,scripted]; policies already "
+        "in --out "
         "for the same episodes are kept, missing ones are run.",
     ),
 ) -> None:
-    """Trivial policies (all-zero, uniform random, constant turn) on the fixed test episodes.
+    """Reference policies (all-zero, uniform random, constant turn, scripted image-only pipeline)
+    on the fixed test episodes.
 
     The file is what `grn evaluate --baselines-from` and `evodevo reproduce` reuse (SPEC §2.5).
     """
@@ -252,16 +263,37 @@ def plot(
 
 @app.command()
 def video(
-    run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
-    out: Path = typer.Option(..., "--out", help="GIF file to write."),
-    episode: int = typer.Option(0, help="Index of the test episode."),
+    run_dir: Path = typer.Argument(..., help="Run directory of `grn evolve` or `baselines kuka`."),
+    out: Path = typer.Option(..., "--out", help="GIF (or MP4, with imageio-ffmpeg) to write."),
+    episode: int = typer.Option(0, help="Index of the test episode (its fixed test seed)."),
     objects: str = typer.Option("test", help="test or train objects."),
+    fps: float = typer.Option(2.0, help="Frames (environment steps) per second."),
 ) -> None:
-    """A GIF of the best genome on one test episode."""
-    from evodevo.grn.recording import record_video
+    """Film the best genome on one test episode: step, action, reward and success on each frame.
+
+    The episode is the one `grn evaluate` runs with the same index and objects.
+    """
+    import evodevo
+    from evodevo.grn.evaluation import test_episodes
     from evodevo.parallel import set_single_thread
+    from evodevo.video import film_episode, save_frames
 
     set_single_thread()
     if episode < 0:
         raise EvodevoError(f"--episode {episode} must be >= 0")
-    typer.echo(str(record_video(run_dir, out, episode, objects)))
+    if objects not in ("test", "train"):
+        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    if not fps > 0:
+        raise EvodevoError(f"--fps {fps} must be > 0")
+    policy = evodevo.load(run_dir)
+    cfg = policy.config  # type: ignore[attr-defined]
+    ep = test_episodes(cfg.evaluation.test_seed, episode + 1, objects == "test")[episode]
+    env = policy.make_env(test_objects=ep.test_objects, render_mode="rgb_array")  # type: ignore[call-arg]
+    try:
+        title = f"{policy.kind} test episode {episode} ({objects} objects)"  # type: ignore[attr-defined]
+        frames, res = film_episode(policy, env, ep.seed, title)
+    finally:
+        env.close()
+    save_frames(frames, out, fps)
+    outcome = "success" if res["success"] else "failure"
+    typer.echo(f"{out} ({len(frames)} frames at {fps:g} fps; {outcome})")

@@ -352,3 +352,25 @@ class GrnConfig:
                 f"genome.p_init=identity needs sensors.feature_dim ({self.sensors.feature_dim}) "
                 f"== sensors.n_visual ({self.sensors.n_visual})"
             )
+
+
+VISION_PRESET: dict[str, Any] = {
+    "dynamics": {"dt": 0.1, "substeps": 20},
+    "sensors": {"encoder": "blob", "feature_dim": 4},
+    "genome": {"p_init": "identity"},
+    "evolution": {"early_stop_success": 0.8, "retest_success": 0.7},
+    "evaluation": {"distance_weight": 1.0},
+}
+"""The default preset of ``evodevo grn evolve`` (issue 22): what differs from the thesis
+defaults (``configs/grn.yaml``). ``configs/grn_vision.yaml`` spells it out; a test checks both
+agree. Values chosen by measurement (docs/results/grn.md)."""
+
+
+def vision_preset() -> dict[str, Any]:
+    """A copy of :data:`VISION_PRESET` (overrides of the thesis defaults)."""
+    import copy
+
+    return copy.deepcopy(VISION_PRESET)
+
+
+__all__ += ["VISION_PRESET", "vision_preset"]
