@@ -20,7 +20,10 @@ of ``pybullet`` 3.2.7, with these differences:
   :data:`PROPRIO_CENTRE`, :data:`PROPRIO_HALF_RANGE`); ``info["is_success"]``: reward == 1;
 * ``terminated`` is True after the automatic grasp; reaching ``max_steps`` without a grasp sets
   ``truncated`` (the original returned a single ``done``);
-* continuous actions are clipped to [−1, 1].
+* continuous actions are clipped to [−1, 1];
+* ``scene_cache`` (default on): the settled scene of a drop is simulated once per process (or
+  per cache folder) and then written into the bodies instead of simulated again
+  (:mod:`evodevo.envs.scene_cache`; docs/kuka_env.md, "Settled-scene cache").
 
 >>> import gymnasium as gym, evodevo.envs
 >>> env = gym.make("evodevo/KukaDiverseObject-v0")
@@ -33,6 +36,7 @@ of ``pybullet`` 3.2.7, with these differences:
 from __future__ import annotations
 
 import contextlib
+import importlib.metadata
 import math
 import os
 from typing import Any, SupportsFloat
@@ -43,8 +47,17 @@ import pybullet as p
 import pybullet_data
 from gymnasium import spaces
 
+from evodevo.envs import kuka_arm
 from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, WORKSPACE_X, WORKSPACE_Y, KukaArm
 from evodevo.envs.objects import object_files
+from evodevo.envs.scene_cache import (
+    CACHE_DIR_ENV,
+    DEFAULT_MAX_ENTRIES,
+    SceneCache,
+    SettledScene,
+    scene_key,
+    shared_cache,
+)
 from evodevo.errors import ConfigError, EvodevoError
 
 __all__ = [
@@ -63,6 +76,8 @@ __all__ = [
 TIME_STEP = 1.0 / 240.0
 #: Constraint-solver iterations, as in the original.
 SOLVER_ITERATIONS = 150
+#: Gravity along z (m/s²), as in the original.
+GRAVITY = -10.0
 #: Simulation steps after dropping each object, so that they fall one by one.
 SETTLE_STEPS = 500
 #: Drop height of the objects (m).
@@ -159,6 +174,17 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             the default 1 every episode runs in a fresh world, as the original's
             ``resetSimulation`` gives, so no episode can depend on what ran before (about 40 ms
             per reset; docs/kuka_env.md, "Memory").
+        scene_cache: Keep the settled scene of every seeded reset in a per-process LRU and write
+            it into the bodies when the same drop comes again, instead of simulating it
+            (docs/kuka_env.md, "Settled-scene cache"). ``True`` (default) uses the process-wide
+            cache of ``scene_cache_dir``; a :class:`~evodevo.envs.scene_cache.SceneCache` uses
+            that one; ``False`` is the port without it: the objects settle in the episode's own
+            world (bit for bit the original's physics, ``deterministic_pairs=False``), whose
+            contact caches an episode then inherits, so its episodes differ from the cached
+            ones in the last bits (and, the grasp being chaotic, some outcomes; same rates).
+        scene_cache_dir: Folder of on-disk scenes shared by runs and sessions (created if
+            missing); ``None`` reads ``$EVODEVO_SCENE_CACHE_DIR``, unset means memory only.
+        scene_cache_entries: Scenes kept in memory per process (about 2 KB each).
 
     Raises:
         ConfigError: An option is out of range.
@@ -182,6 +208,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         urdf_root: str | None = None,
         deterministic_pairs: bool = True,
         rebuild_every: int = 1,
+        scene_cache: bool | SceneCache = True,
+        scene_cache_dir: str | None = None,
+        scene_cache_entries: int = DEFAULT_MAX_ENTRIES,
     ) -> None:
         _check_int("num_objects", num_objects, 1)
         _check_int("max_steps", max_steps, 1)
@@ -189,6 +218,11 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         _check_int("width", width, 1)
         _check_int("height", height, 1)
         _check_int("rebuild_every", rebuild_every, 0)
+        _check_int("scene_cache_entries", scene_cache_entries, 1)
+        if not isinstance(scene_cache, (bool, SceneCache)):
+            raise ConfigError(
+                f"scene_cache={scene_cache!r} must be true, false or a SceneCache instance"
+            )
         _check_unit("camera_random", camera_random)
         _check_unit("block_random", block_random)
         if render_mode not in (None, "rgb_array"):
@@ -223,6 +257,15 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
 
         self.deterministic_pairs = bool(deterministic_pairs)
         self.rebuild_every = int(rebuild_every)
+        self.scene_cache: SceneCache | None
+        if isinstance(scene_cache, SceneCache):
+            self.scene_cache = scene_cache
+        elif scene_cache:
+            folder = scene_cache_dir or os.environ.get(CACHE_DIR_ENV) or None
+            self.scene_cache = shared_cache(int(scene_cache_entries), folder)
+        else:
+            self.scene_cache = None
+        self._scene_settings = self._drop_settings()
         self._connected = False
         self._cid: int = -1
         self.worlds_built = 0
@@ -234,12 +277,19 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._proj_matrix: Any = None
 
     def _build_world(self) -> None:
-        """Connect a new DIRECT client and load the plane, table and arm (a fresh world)."""
+        """Replace this instance's client by a fresh world: plane, table, arm and tray."""
         if self._connected and p.isConnected(self._cid):
             p.disconnect(self._cid)
-        self._cid = p.connect(p.DIRECT)
+        self._cid, self._arm = self._new_world()
         self._connected = True
-        cid = self._cid
+        self._object_uids: list[int] = []
+        self._fresh = True
+        self._resets_in_world = 0
+        self.worlds_built += 1
+
+    def _new_world(self) -> tuple[int, KukaArm]:
+        """Connect a new DIRECT client and load the plane, table, arm and tray, in the original's order."""
+        cid = p.connect(p.DIRECT)
         p.setPhysicsEngineParameter(
             numSolverIterations=SOLVER_ITERATIONS,
             deterministicOverlappingPairs=int(self.deterministic_pairs),
@@ -255,13 +305,37 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             baseOrientation=[0.0, 0.0, 0.0, 1.0],
             physicsClientId=cid,
         )
-        p.setGravity(0, 0, -10, physicsClientId=cid)
-        self._arm = KukaArm(cid, self.urdf_root)
-        self._arm.load()
-        self._object_uids: list[int] = []
-        self._fresh = True
-        self._resets_in_world = 0
-        self.worlds_built += 1
+        p.setGravity(0, 0, GRAVITY, physicsClientId=cid)
+        arm = KukaArm(cid, self.urdf_root)
+        arm.load()
+        return cid, arm
+
+    def _drop_settings(self) -> dict[str, Any]:
+        """Everything besides the objects and their poses that changes a settled scene."""
+        try:
+            version = importlib.metadata.version("pybullet")
+        except importlib.metadata.PackageNotFoundError:  # pragma: no cover - a source build
+            version = f"api-{p.getAPIVersion()}"
+        settings: dict[str, Any] = {
+            "pybullet": version,
+            "time_step": TIME_STEP,
+            "solver_iterations": SOLVER_ITERATIONS,
+            "gravity": GRAVITY,
+            "settle_steps": SETTLE_STEPS,
+            "drop_height": DROP_HEIGHT,
+            "deterministic_pairs": self.deterministic_pairs,
+            "arm": [
+                list(kuka_arm.INITIAL_JOINT_POSITIONS),
+                list(kuka_arm._BASE_POSITION),
+                list(kuka_arm._BASE_ORIENTATION),
+                list(kuka_arm._TRAY_POSITION),
+                list(kuka_arm._TRAY_ORIENTATION),
+                kuka_arm._MAX_FORCE,
+            ],
+        }
+        if os.path.abspath(self.urdf_root) != os.path.abspath(pybullet_data.getDataPath()):
+            settings["urdf_root"] = os.path.abspath(self.urdf_root)
+        return settings
 
     # ------------------------------------------------------------------ Gymnasium API
 
@@ -283,18 +357,30 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"reset options {sorted(options)} are not supported; pass settings to the constructor"
             )
         self._require_open()
-        if self.rebuild_every and self._resets_in_world >= self.rebuild_every:
-            self._build_world()
-        self._resets_in_world += 1
+        # Every draw of the episode, in the original's order: camera, object indices, poses.
         rng = self.np_random
-        cid = self._cid
         cr = self.camera_random
         pitch = -56 + cr * rng.uniform(-3, 3)
         yaw = 245 + cr * rng.uniform(-3, 3)
+        fov = 20.0 + cr * rng.uniform(-2, 2)
+        chosen = rng.choice(len(self._files), self.num_objects)
+        br = self.block_random
+        poses = []
+        for _ in chosen:
+            x = 0.4 + br * rng.random()
+            y = br * (rng.random() - 0.5)
+            angle = math.pi / 2 + br * math.pi * rng.random()
+            poses.append((x, y, angle))
+        files = [self._files[int(i)] for i in chosen]
+        scene = None if self.scene_cache is None else self._settled_scene(files, poses, seed)
+
+        if self.rebuild_every and self._resets_in_world >= self.rebuild_every:
+            self._build_world()
+        self._resets_in_world += 1
+        cid = self._cid
         self._view_matrix = p.computeViewMatrixFromYawPitchRoll(
             [0.23, 0.2, 0.54], 1.0, yaw, pitch, 0, 2, physicsClientId=cid
         )
-        fov = 20.0 + cr * rng.uniform(-2, 2)
         self._proj_matrix = p.computeProjectionMatrixFOV(
             fov, self.width / self.height, 0.01, 10, physicsClientId=cid
         )
@@ -310,25 +396,40 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             self._arm.reset_state()
         self._fresh = False
         p.stepSimulation(physicsClientId=cid)
-
-        chosen = rng.choice(len(self._files), self.num_objects)
-        br = self.block_random
-        for index in chosen:
-            x = 0.4 + br * rng.random()
-            y = br * (rng.random() - 0.5)
-            angle = math.pi / 2 + br * math.pi * rng.random()
-            orn = p.getQuaternionFromEuler([0, 0, angle])
-            uid = p.loadURDF(
-                self._files[int(index)],
-                basePosition=[x, y, DROP_HEIGHT],
-                baseOrientation=orn,
-                physicsClientId=cid,
-            )
-            self._object_uids.append(uid)
-            for _ in range(SETTLE_STEPS):
-                p.stepSimulation(physicsClientId=cid)
+        settle = 0 if scene is not None else SETTLE_STEPS
+        self._object_uids = _drop(cid, files, poses, settle)
+        if scene is not None:
+            _place(cid, self._object_uids, self._arm.uid, scene)
         self._ready = True
         return self._observation(), {"proprio": self._proprio(), "is_success": False}
+
+    def _settled_scene(
+        self, files: list[str], poses: list[tuple[float, float, float]], seed: int | None
+    ) -> SettledScene:
+        """The settled scene of this drop: from the cache, or simulated in a scratch world.
+
+        A miss drops and settles the objects exactly as a reset of a fresh world without the
+        cache does, in a separate client (so this instance's world and its ``rebuild_every``
+        bookkeeping are untouched), and keeps the result. Only seeded resets are stored: an
+        unseeded drop is (almost surely) never seen again.
+        """
+        assert self.scene_cache is not None
+        rel = tuple(os.path.relpath(f, self.urdf_root) for f in files)
+        key = scene_key(rel, np.asarray(poses, dtype=np.float64), self._scene_settings)
+        if seed is not None:
+            found = self.scene_cache.get(key)
+            if found is not None:
+                return found
+        cid, arm = self._new_world()
+        try:
+            p.stepSimulation(physicsClientId=cid)
+            uids = _drop(cid, files, poses, SETTLE_STEPS)
+            scene = _capture(cid, uids, arm.uid, rel, poses, seed)
+        finally:
+            p.disconnect(cid)
+        if seed is not None:
+            self.scene_cache.put(key, scene)
+        return scene
 
     def step(self, action: Any) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         """Move the gripper; grasp automatically once it is low enough.
@@ -475,6 +576,58 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         # At interpreter shutdown pybullet may already be torn down.
         with contextlib.suppress(Exception):
             self.close()
+
+
+def _drop(
+    cid: int, files: list[str], poses: list[tuple[float, float, float]], settle_steps: int
+) -> list[int]:
+    """Load the objects at their drop poses, one by one, each followed by ``settle_steps`` steps."""
+    uids = []
+    for path, (x, y, angle) in zip(files, poses, strict=True):
+        orn = p.getQuaternionFromEuler([0, 0, angle])
+        uid = p.loadURDF(
+            path, basePosition=[x, y, DROP_HEIGHT], baseOrientation=orn, physicsClientId=cid
+        )
+        uids.append(uid)
+        for _ in range(settle_steps):
+            p.stepSimulation(physicsClientId=cid)
+    return uids
+
+
+def _capture(
+    cid: int,
+    uids: list[int],
+    arm_uid: int,
+    files: tuple[str, ...],
+    poses: list[tuple[float, float, float]],
+    seed: int | None,
+) -> SettledScene:
+    """Read the settled state of every object and arm joint (see :class:`SettledScene`)."""
+    objects = np.empty((len(uids), 13), dtype=np.float64)
+    for i, uid in enumerate(uids):
+        pos, orn = p.getBasePositionAndOrientation(uid, physicsClientId=cid)
+        lin, ang = p.getBaseVelocity(uid, physicsClientId=cid)
+        objects[i] = (*pos, *orn, *lin, *ang)
+    n = p.getNumJoints(arm_uid, physicsClientId=cid)
+    states = p.getJointStates(arm_uid, list(range(n)), physicsClientId=cid)
+    return SettledScene(
+        files=files,
+        poses=np.asarray(poses, dtype=np.float64),
+        objects=objects,
+        arm_q=np.array([s[0] for s in states], dtype=np.float64),
+        arm_qd=np.array([s[1] for s in states], dtype=np.float64),
+        seed=seed,
+    )
+
+
+def _place(cid: int, uids: list[int], arm_uid: int, scene: SettledScene) -> None:
+    """Write a settled scene's state into freshly dropped objects and the arm."""
+    for uid, row in zip(uids, scene.objects, strict=True):
+        vals = row.tolist()
+        p.resetBasePositionAndOrientation(uid, vals[0:3], vals[3:7], physicsClientId=cid)
+        p.resetBaseVelocity(uid, vals[7:10], vals[10:13], physicsClientId=cid)
+    for j, (q, qd) in enumerate(zip(scene.arm_q.tolist(), scene.arm_qd.tolist(), strict=True)):
+        p.resetJointState(arm_uid, j, q, targetVelocity=qd, physicsClientId=cid)
 
 
 def _check_int(name: str, value: Any, low: int) -> None:
