@@ -262,6 +262,40 @@ def sweep(
 
 
 @app.command()
+def video(
+    run_dir: Path = typer.Argument(..., help="Run directory of `biarm train` (or OUT/runs/...)."),
+    task: str = typer.Option(..., help="The column: task index (0, 1, ...) or Gymnasium id."),
+    out: Path = typer.Option(..., help="GIF (or MP4, with imageio-ffmpeg) to write."),
+    seed: int | None = typer.Option(
+        None, help="Seed of the filmed episode [eval.seed: the first evaluation episode]."
+    ),
+    fps: float | None = typer.Option(None, help="Frames per second [the env's render_fps]."),
+    max_steps: int | None = typer.Option(None, help="Stop filming after this many steps."),
+) -> None:
+    """Film one task's column acting greedily in its environment (step, action, reward, return)."""
+    import evodevo
+    from evodevo.runs import read_json
+    from evodevo.video import film_episode, save_frames
+
+    check_seed("--seed", seed)
+    if fps is not None and not fps > 0:
+        raise EvodevoError(f"--fps {fps} must be > 0")
+    if max_steps is not None and max_steps < 1:
+        raise EvodevoError(f"--max-steps {max_steps} must be >= 1")
+    policy = evodevo.load(run_dir, task=task)
+    if seed is None:
+        seed = int(read_json(run_dir / "config.json")["config"].get("eval", {}).get("seed", 0))
+    env = policy.make_env(render_mode="rgb_array")
+    try:
+        rate = fps if fps is not None else float(env.metadata.get("render_fps") or 30)
+        frames, res = film_episode(policy, env, seed, f"column {task}: {policy.env_id}", max_steps)
+    finally:
+        env.close()
+    save_frames(frames, out, rate)
+    typer.echo(f"{out} ({len(frames)} frames at {rate:g} fps; return {res['return']:.2f})")
+
+
+@app.command()
 def report(
     out: Path = typer.Argument(..., help="A folder written by `evodevo biarm compare`."),
     figures: bool = typer.Option(True, help="Also re-draw the figures."),

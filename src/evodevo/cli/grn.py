@@ -268,6 +268,7 @@ def video(
     episode: int = typer.Option(0, help="Index of the test episode (its fixed test seed)."),
     objects: str = typer.Option("test", help="test or train objects."),
     fps: float = typer.Option(2.0, help="Frames (environment steps) per second."),
+    max_steps: int | None = typer.Option(None, help="Stop filming after this many steps."),
 ) -> None:
     """Film the best genome on one test episode: step, action, reward and success on each frame.
 
@@ -285,15 +286,19 @@ def video(
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     if not fps > 0:
         raise EvodevoError(f"--fps {fps} must be > 0")
+    if max_steps is not None and max_steps < 1:
+        raise EvodevoError(f"--max-steps {max_steps} must be >= 1")
     policy = evodevo.load(run_dir)
     cfg = policy.config  # type: ignore[attr-defined]
     ep = test_episodes(cfg.evaluation.test_seed, episode + 1, objects == "test")[episode]
     env = policy.make_env(test_objects=ep.test_objects, render_mode="rgb_array")  # type: ignore[call-arg]
     try:
         title = f"{policy.kind} test episode {episode} ({objects} objects)"  # type: ignore[attr-defined]
-        frames, res = film_episode(policy, env, ep.seed, title)
+        frames, res = film_episode(policy, env, ep.seed, title, max_steps)
     finally:
         env.close()
     save_frames(frames, out, fps)
-    outcome = "success" if res["success"] else "failure"
+    outcome = {True: "success", False: "failure", None: f"return {res['return']:.2f}"}[
+        res["success"]
+    ]
     typer.echo(f"{out} ({len(frames)} frames at {fps:g} fps; {outcome})")
