@@ -83,8 +83,13 @@ def evolve(
     config: Path | None = typer.Option(
         None,
         "--config",
-        help="YAML config [the vision preset, configs/grn_vision.yaml]; configs/grn.yaml is the "
-        "thesis protocol.",
+        help="YAML config; keys it leaves out take the thesis defaults (configs/grn.yaml). "
+        "Without it, --preset.",
+    ),
+    preset: str = typer.Option(
+        "vision",
+        help="Without --config: vision (configs/grn_vision.yaml: blob front-end, substeps, shaped "
+        "training fitness; issue 22) or thesis (configs/grn.yaml, the thesis protocol).",
     ),
     controller: str | None = typer.Option(None, help="Controller kind [plain]."),
     blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
@@ -113,10 +118,13 @@ def evolve(
     if resume and config is None:
         saved = read_json(out / "config.json").get("config", {})
         cfg = load_config(GrnConfig, None, _merge(saved, ov))
-    elif config is None:  # the default preset sees (issue 22); --config configs/grn.yaml: thesis
+    elif config is None:  # the default preset sees (issue 22); --preset thesis: the thesis
         from evodevo.grn.config import vision_preset
 
-        cfg = load_config(GrnConfig, None, _merge(vision_preset(), ov))
+        if preset not in ("vision", "thesis"):
+            raise EvodevoError(f"--preset {preset!r} is not a preset; choose vision or thesis")
+        base = vision_preset() if preset == "vision" else {}
+        cfg = load_config(GrnConfig, None, _merge(base, ov))
     else:
         cfg = load_config(GrnConfig, config, ov)
     if cfg.controller == "open_loop" and cfg.sensors.blind:

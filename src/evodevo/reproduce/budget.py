@@ -70,7 +70,9 @@ class GrnBudget:
     controls: bool = doc(True, "also evolve the blind GRN and the best open-loop policy")
     control_seeds: str = doc("0", "seeds of the blind and open-loop controls")
     controllers: list[str] = doc(
-        ["plain", "neuromodulated"], "GRN controller kinds to evolve (SPEC §2, §5)"
+        ["plain", "neuromodulated", "vision"],
+        "GRN controller kinds to evolve (SPEC §2, §5), thesis preset; vision = the plain GRN "
+        "with the default preset (blob front-end, issue 22), beside them in the report",
     )
 
     def validate(self) -> None:
@@ -154,7 +156,7 @@ QUICK = {
         "ablation_episodes": 4,
         "controls": True,
         "control_seeds": "0",
-        "controllers": ["plain", "neuromodulated"],
+        "controllers": ["plain", "neuromodulated", "vision"],
     },
     "kuka": {"methods": ["ppo", "neat"], "seeds": "0", "budget_scales": [1.0]},
 }

@@ -60,12 +60,21 @@ def finished(path: Path) -> bool:
 def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list[str]]]:
     """(label, controller, seed, extra evolve flags) of every GRN evolution."""
     g = cfg.grn
-    runs = [(c, c, s, ["--controller", c]) for c in g.controllers for s in parse_seeds(g.seeds)]
+    # "vision" is the plain GRN with the default preset (issue 22: blob front-end, substeps,
+    # shaped training fitness); every other label runs the thesis preset (configs/grn.yaml).
+    thesis = ["--preset", "thesis"]
+
+    def flags(c: str) -> list[str]:
+        return ["--preset", "vision"] if c == "vision" else ["--controller", c, *thesis]
+
+    runs = [(c, c, s, flags(c)) for c in g.controllers for s in parse_seeds(g.seeds)]
     controls: list[tuple[str, str, int, list[str]]] = []
     if g.controls:
         for s in parse_seeds(g.control_seeds):
-            controls.append(("blind", "plain", s, ["--blind"]))
-            controls.append(("openloop", "open_loop", s, ["--open-loop"]))
+            controls.append(("blind", "plain", s, ["--blind", *thesis]))
+            controls.append(("openloop", "open_loop", s, ["--open-loop", *thesis]))
+            if "vision" in g.controllers:
+                controls.append(("vision_blind", "plain", s, ["--preset", "vision", "--blind"]))
     # The controls come right after the first evolution: the headline comparison (GRN vs
     # blind GRN vs open loop) is complete early in a long, resumed-many-times run.
     return runs[:1] + controls + runs[1:]
