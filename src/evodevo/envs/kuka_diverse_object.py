@@ -46,6 +46,7 @@ import numpy as np
 import pybullet as p
 import pybullet_data
 from gymnasium import spaces
+from gymnasium.utils.seeding import np_random
 
 from evodevo.envs import kuka_arm
 from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, WORKSPACE_X, WORKSPACE_Y, KukaArm
@@ -357,21 +358,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
                 f"reset options {sorted(options)} are not supported; pass settings to the constructor"
             )
         self._require_open()
-        # Every draw of the episode, in the original's order: camera, object indices, poses.
-        rng = self.np_random
-        cr = self.camera_random
-        pitch = -56 + cr * rng.uniform(-3, 3)
-        yaw = 245 + cr * rng.uniform(-3, 3)
-        fov = 20.0 + cr * rng.uniform(-2, 2)
-        chosen = rng.choice(len(self._files), self.num_objects)
-        br = self.block_random
-        poses = []
-        for _ in chosen:
-            x = 0.4 + br * rng.random()
-            y = br * (rng.random() - 0.5)
-            angle = math.pi / 2 + br * math.pi * rng.random()
-            poses.append((x, y, angle))
-        files = [self._files[int(i)] for i in chosen]
+        pitch, yaw, fov, files, poses = self._draw(self.np_random)
         scene = None if self.scene_cache is None else self._settled_scene(files, poses, seed)
 
         if self.rebuild_every and self._resets_in_world >= self.rebuild_every:
@@ -403,6 +390,33 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._ready = True
         return self._observation(), {"proprio": self._proprio(), "is_success": False}
 
+    def scene_key(self, seed: int) -> dict[str, Any]:
+        """The settled-scene cache key of ``reset(seed=seed)`` (no simulation, no state change)."""
+        _, _, _, files, poses = self._draw(np_random(seed)[0])
+        return self._key(files, poses)
+
+    def _draw(
+        self, rng: np.random.Generator
+    ) -> tuple[float, float, float, list[str], list[tuple[float, float, float]]]:
+        """Every draw of an episode, in the original's order: camera, object indices, poses."""
+        cr = self.camera_random
+        pitch = -56 + cr * rng.uniform(-3, 3)
+        yaw = 245 + cr * rng.uniform(-3, 3)
+        fov = 20.0 + cr * rng.uniform(-2, 2)
+        chosen = rng.choice(len(self._files), self.num_objects)
+        br = self.block_random
+        poses = []
+        for _ in chosen:
+            x = 0.4 + br * rng.random()
+            y = br * (rng.random() - 0.5)
+            angle = math.pi / 2 + br * math.pi * rng.random()
+            poses.append((x, y, angle))
+        return pitch, yaw, fov, [self._files[int(i)] for i in chosen], poses
+
+    def _key(self, files: list[str], poses: list[tuple[float, float, float]]) -> dict[str, Any]:
+        rel = [os.path.relpath(f, self.urdf_root) for f in files]
+        return scene_key(rel, np.asarray(poses, dtype=np.float64), self._scene_settings)
+
     def _settled_scene(
         self, files: list[str], poses: list[tuple[float, float, float]], seed: int | None
     ) -> SettledScene:
@@ -414,8 +428,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         unseeded drop is (almost surely) never seen again.
         """
         assert self.scene_cache is not None
-        rel = tuple(os.path.relpath(f, self.urdf_root) for f in files)
-        key = scene_key(rel, np.asarray(poses, dtype=np.float64), self._scene_settings)
+        key = self._key(files, poses)
         if seed is not None:
             found = self.scene_cache.get(key)
             if found is not None:
@@ -424,6 +437,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         try:
             p.stepSimulation(physicsClientId=cid)
             uids = _drop(cid, files, poses, SETTLE_STEPS)
+            rel = tuple(obj[0] for obj in key["objects"])
             scene = _capture(cid, uids, arm.uid, rel, poses, seed)
         finally:
             p.disconnect(cid)
