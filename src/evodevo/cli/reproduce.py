@@ -14,7 +14,9 @@ __all__ = ["reproduce"]
 def reproduce(
     out: Path = typer.Option(..., "--out", help="Run directory for the report and all sub-runs."),
     budget: str = typer.Option(
-        "quick", help="quick (about 10 minutes) or thesis (the full protocol)."
+        "quick",
+        help="quick (every step at a tiny budget; measured times in docs/results/make_run.md) "
+        "or thesis (the full protocol).",
     ),
     config: Path | None = typer.Option(None, "--config", help="YAML budget replacing the preset."),
     seed_offset: int = typer.Option(0, help="Offset added to every seed of the budget."),

@@ -1,7 +1,8 @@
 """Budgets of ``evodevo reproduce`` (issue 7): what is run, with how many seeds and episodes.
 
 ``thesis`` is the full protocol of SPEC §1 and §2 (the thesis' own budgets, our seed counts);
-``quick`` is the same pipeline shrunk to finish within 15 minutes on 2 cores (``make run``).
+``quick`` is the same pipeline shrunk to minutes on 2 cores (``make run``; measured times in
+docs/results/make_run.md).
 The YAML files ``configs/reproduce_quick.yaml`` and ``configs/reproduce_thesis.yaml`` hold the
 same values (a test keeps them equal); ``--config FILE`` loads any other budget.
 """
