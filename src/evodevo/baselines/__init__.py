@@ -8,3 +8,8 @@
 * :mod:`~evodevo.baselines.table_4_2` — the comparison table (Markdown and CSV).
 * :mod:`~evodevo.baselines.sb3_dqn_tasks` — BIARM's ``sb3-dqn`` baseline: an SB3 DQN per task.
 """
+
+from evodevo.trainers import register_trainer
+
+# BIARM's sb3-dqn variant (architecture "sb3") is trained here, not by the method's trainer
+register_trainer("sb3", "evodevo.baselines.sb3_dqn_tasks:train_sb3_tasks")

@@ -47,6 +47,7 @@ from evodevo.neuromod.variants import Variant, get_variant
 from evodevo.runs import CsvAppender, RunDir
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
+from evodevo.trainers import get_trainer
 
 __all__ = [
     "train",
@@ -349,10 +350,9 @@ def train(
             :class:`~evodevo.signals.StopRequested`.
     """
     var = get_variant(variant) if isinstance(variant, str) else variant
-    if var.architecture == "sb3":  # a Stable-Baselines3 DQN per task, same run files
-        from evodevo.baselines.sb3_dqn_tasks import train_sb3_tasks
-
-        return train_sb3_tasks(cfg, var, seed, out, resume, hook, on_task, stop)
+    other = get_trainer(var.architecture)  # e.g. sb3: an SB3 DQN per task, same run files
+    if other is not None:
+        return other(cfg, var, seed, out, resume, hook, on_task, stop)
     specs, d_max = resolve_tasks(cfg)
     run = RunDir(out)
     point = latest_resume_point(run.path / "checkpoints")

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from evodevo.cli.common import parse_seeds
 from evodevo.reproduce.budget import ReproduceConfig
 from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
 from evodevo.runs import RunDir
+from evodevo.seeding import parse_seeds
 from evodevo.stats import rate
 
 __all__ = ["kuka_paired", "kuka_section", "learning_curve", "refill_notes", "unfinished_runs"]

@@ -16,11 +16,11 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from evodevo.cli.common import parse_seeds
 from evodevo.config import load_config, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.reproduce.budget import PRESETS, ReproduceConfig
 from evodevo.runs import RunDir, atomic_write_text
+from evodevo.seeding import parse_seeds
 
 __all__ = ["Step", "plan", "run_reproduce", "run_step"]
 

@@ -11,7 +11,6 @@ import datetime as dt
 from pathlib import Path
 from typing import Any
 
-from evodevo.cli.common import parse_seeds
 from evodevo.errors import EvodevoError
 from evodevo.grn.ablation_pooling import (
     pool_ablations,
@@ -25,6 +24,7 @@ from evodevo.reproduce.html_report import markdown_to_html
 from evodevo.reproduce.kuka_report import kuka_section
 from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
 from evodevo.runs import atomic_write_text, machine_info
+from evodevo.seeding import parse_seeds
 from evodevo.stats import fisher_exact, mcnemar_exact_counts, rate
 
 __all__ = [

@@ -1,0 +1,51 @@
+"""Issue 23 item 11: dependencies point down. The BIARM method does not import its baselines (an
+architecture it does not train is looked up in :mod:`evodevo.trainers`), and no library module
+imports the command line (``parse_seeds`` lives in :mod:`evodevo.seeding`)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "evodevo"
+
+
+def _imports(path: Path) -> set[str]:
+    """Every module a file imports, at the top or inside functions."""
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out.add(node.module)
+    return out
+
+
+def _offenders(package: str, forbidden: str) -> list[str]:
+    return [
+        f"{p.relative_to(SRC)} imports {m}"
+        for p in sorted((SRC / package).rglob("*.py") if package else SRC.rglob("*.py"))
+        if not (not package and p.relative_to(SRC).parts[0] in ("cli", "__main__.py"))
+        for m in sorted(_imports(p))
+        if m == forbidden or m.startswith(forbidden + ".")
+    ]
+
+
+def test_the_method_does_not_import_its_baselines():
+    assert _offenders("neuromod", "evodevo.baselines") == []
+
+
+def test_library_code_does_not_import_the_cli():
+    assert _offenders("", "evodevo.cli") == []
+
+
+def test_the_sb3_trainer_is_registered_by_the_baselines():
+    pytest.importorskip("stable_baselines3")
+    from evodevo.baselines.sb3_dqn_tasks import train_sb3_tasks
+    from evodevo.neuromod.variants import get_variant
+    from evodevo.trainers import get_trainer
+
+    assert get_trainer(get_variant("sb3-dqn").architecture) is train_sb3_tasks
+    assert get_trainer(get_variant("biarm").architecture) is None
