@@ -23,14 +23,45 @@ from __future__ import annotations
 import contextlib
 import multiprocessing as mp
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextvars import ContextVar
 from typing import Any, TypeVar
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["WorkerPool", "worker_setup", "set_single_thread", "exit_with_parent"]
+__all__ = [
+    "WorkerPool",
+    "worker_setup",
+    "set_single_thread",
+    "exit_with_parent",
+    "report_progress",
+    "ProgressCallback",
+]
+
+#: Told ``(done, total)`` after every finished item of a ``map`` (``done == 0`` when it starts).
+ProgressCallback = Callable[[int, int], None]
+_PROGRESS: ContextVar[ProgressCallback | None] = ContextVar("evodevo_progress", default=None)
+
+
+@contextlib.contextmanager
+def report_progress(callback: ProgressCallback | None) -> Iterator[None]:
+    """Within the block, every pool ``map`` reports its items to ``callback`` (e.g. a bar).
+
+    The pools know how far a ``map`` is; the code that calls ``map`` (an evaluator, a grid of
+    runs) needs no change for a command to show progress.
+    """
+    token = _PROGRESS.set(callback)
+    try:
+        yield
+    finally:
+        _PROGRESS.reset(token)
+
+
+def progress_callback() -> ProgressCallback:
+    """The active callback of :func:`report_progress` (a no-op outside one)."""
+    return _PROGRESS.get() or (lambda done, total: None)
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -147,12 +178,18 @@ class WorkerPool:
     def map(self, fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         """``[fn(x) for x in items]``, in order, spread over the workers."""
         seq: Sequence[T] = list(items)
+        report = progress_callback()
+        report(0, len(seq))
         if self.workers == 1:
             if not self._local_ready:
                 if self.initializer is not None:
                     self.initializer(*self.initargs)
                 self._local_ready = True
-            return [fn(x) for x in seq]
+            out = []
+            for x in seq:
+                out.append(fn(x))
+                report(len(out), len(seq))
+            return out
         results: dict[int, R] = {}
         attempts = [0] * len(seq)
         pending = list(range(len(seq)))
@@ -172,6 +209,7 @@ class WorkerPool:
                 for fut in done:
                     try:
                         results[futures[fut]] = fut.result()
+                        report(len(results), len(seq))
                     except BrokenProcessPool:
                         broken = True
             pending = [i for i in range(len(seq)) if i not in results]

@@ -137,7 +137,11 @@ class RayPool:
         ray = self.ray
         from ray.exceptions import RayActorError
 
+        from evodevo.parallel import progress_callback
+
         seq = list(items)
+        report = progress_callback()
+        report(0, len(seq))
         results: dict[int, R] = {}
         attempts = [0] * len(seq)
         queue = list(range(len(seq)))
@@ -153,6 +157,7 @@ class RayPool:
                 i, slot = running.pop(ref)
                 try:
                     results[i] = ray.get(ref)
+                    report(len(results), len(seq))
                 except RayActorError:
                     self.restarts += 1
                     attempts[i] += 1

@@ -161,13 +161,25 @@ def _train_with_progress(
 
     if quiet:
         return run_train(cfg, var, seed, out, resume=resume, stop=stop)
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TextColumn("ETA"),
+        TimeRemainingColumn(),
         TextColumn("{task.fields[info]}"),
+        console=Console(stderr=True),
     ) as progress:
         bars: dict[int, Any] = {}
 
@@ -202,6 +214,7 @@ def compare(
         None, help=ADDRESS_HELP + " On a cluster --out must be on storage every node sees."
     ),
     out: Path = typer.Option(..., help="Output folder (runs/, tables, figures)."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """Run the variant x seed grid in parallel (resumable) and write tables and figures.
 
@@ -221,7 +234,12 @@ def compare(
     cfg = _load(config, tasks, episodes_scale, set_)
     set_single_thread()
     check_backend(backend, address, workers)
-    done = run_grid(cfg, names, seed_list, out, workers=workers, backend=backend, address=address)
+    from evodevo.progress import CommandProgress
+
+    with CommandProgress("training runs", quiet):
+        done = run_grid(
+            cfg, names, seed_list, out, workers=workers, backend=backend, address=address
+        )
     typer.echo(f"trained {len(done)} run(s); writing tables and figures")
     report = write_report(out)
     typer.echo(f"wrote {report}")
@@ -266,8 +284,8 @@ def video(
     run_dir: Path = typer.Argument(..., help="Run directory of `biarm train` (or OUT/runs/...)."),
     task: str = typer.Option(..., help="The column: task index (0, 1, ...) or Gymnasium id."),
     out: Path = typer.Option(..., help="GIF (or MP4, with imageio-ffmpeg) to write."),
-    seed: int | None = typer.Option(
-        None, help="Seed of the filmed episode [eval.seed: the first evaluation episode]."
+    episode_seed: int | None = typer.Option(
+        None, help="Reset seed of the filmed episode [eval.seed: the first evaluation episode]."
     ),
     fps: float | None = typer.Option(None, help="Frames per second [the env's render_fps]."),
     max_steps: int | None = typer.Option(None, help="Stop filming after this many steps."),
@@ -277,7 +295,8 @@ def video(
     from evodevo.runs import read_json
     from evodevo.video import film_episode, save_frames
 
-    check_seed("--seed", seed)
+    check_seed("--episode-seed", episode_seed)
+    seed = episode_seed
     if fps is not None and not fps > 0:
         raise EvodevoError(f"--fps {fps} must be > 0")
     if max_steps is not None and max_steps < 1:

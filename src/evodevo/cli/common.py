@@ -127,6 +127,7 @@ def add_evaluate_command(
             None, "--episodes", hidden=True, help=OLD_EPISODES_HELP
         ),
         old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
+        quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
     ) -> None:
         from evodevo.grn.evaluation import evaluate_run
         from evodevo.parallel import set_single_thread
@@ -138,18 +139,21 @@ def add_evaluate_command(
         check_seed("--test-seed", seed)
         if check_run is not None:
             check_run(run_dir)
-        res = evaluate_run(
-            run_dir,
-            episodes,
-            objects,
-            noise,
-            seed,
-            workers,
-            baselines,
-            baselines_from,
-            backend=backend,
-            address=address,
-        )
+        from evodevo.progress import CommandProgress
+
+        with CommandProgress("evaluate", quiet):
+            res = evaluate_run(
+                run_dir,
+                episodes,
+                objects,
+                noise,
+                seed,
+                workers,
+                baselines,
+                baselines_from,
+                backend=backend,
+                address=address,
+            )
         if as_json:
             typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
             return

@@ -132,15 +132,19 @@ def evolve(
             "--blind and the open-loop controller contradict each other: an open-loop policy "
             "reads no sensors; drop --blind (or sensors.blind) or choose another controller"
         )
-    summary = evolve_run(
-        cfg,
-        out,
-        workers=workers,
-        resume=resume,
-        progress=not quiet,
-        backend=backend,
-        address=address,
-    )
+    from evodevo.progress import CommandProgress, GenerationBar
+
+    with CommandProgress("evaluate population", quiet) as bars:
+        summary = evolve_run(
+            cfg,
+            out,
+            workers=workers,
+            resume=resume,
+            hooks=[GenerationBar(bars, cfg.evolution.generations)],  # type: ignore[list-item]
+            progress=False,  # the bars print the per-generation line
+            backend=backend,
+            address=address,
+        )
     typer.echo(
         f"{summary['generations_run']} generations, {summary['episodes_run']} episodes, "
         f"{summary['wall_s']:.0f} s; best training success {summary['best_training_success']:.2f}"
@@ -175,6 +179,7 @@ def baselines(
         "in --out "
         "for the same episodes are kept, missing ones are run.",
     ),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """Reference policies (all-zero, uniform random, constant turn, scripted image-only pipeline)
     on the fixed test episodes.
@@ -191,9 +196,12 @@ def baselines(
     set_single_thread()
     check_seed("--test-seed", seed)
     names = parse_list(policies, "--policies")
-    res = evaluate_baselines(
-        load_config(GrnConfig, config), out, episodes, objects, seed, workers, policies=names
-    )
+    from evodevo.progress import CommandProgress
+
+    with CommandProgress("reference policies", quiet):
+        res = evaluate_baselines(
+            load_config(GrnConfig, config), out, episodes, objects, seed, workers, policies=names
+        )
     for name, b in res["baselines"].items():
         typer.echo(format_rate(name, b))
 
@@ -214,11 +222,13 @@ def ablate(
     modulators: bool = typer.Option(
         False, "--modulators", help="Neuromodulated GRN: set each gamma to 0 instead (SPEC §5)."
     ),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """The nine ablations of SPEC §2.5 on the best genome: ablations.md/.csv and a figure."""
     from evodevo.grn.ablations import run_ablations
     from evodevo.grn.figures import plot_ablations
     from evodevo.parallel import set_single_thread
+    from evodevo.progress import CommandProgress
     from evodevo.runs import RunDir
 
     episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
@@ -230,10 +240,12 @@ def ablate(
     if modulators:
         from evodevo.grn.neuromodulated import run_modulator_ablations
 
-        run_modulator_ablations(run_dir, episodes, objects, seed, workers)
+        with CommandProgress("modulator ablations", quiet):
+            run_modulator_ablations(run_dir, episodes, objects, seed, workers)
         typer.echo((run_dir / "modulator_ablations.md").read_text().rstrip())
         return
-    run_ablations(run_dir, episodes, objects, seed, workers)
+    with CommandProgress("ablations", quiet):
+        run_ablations(run_dir, episodes, objects, seed, workers)
     run = RunDir(run_dir, create=False)
     (run.path / "figures").mkdir(exist_ok=True)
     plot_ablations(run, run.path / "figures")

@@ -1,0 +1,55 @@
+"""Issue 23 item 2: long commands show a progress bar with an ETA on stderr (none with --quiet);
+stdout (e.g. --json) is unchanged."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from evodevo.cli import app
+from evodevo.parallel import WorkerPool, report_progress
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
+
+PENDULUM = Path(__file__).resolve().parents[1] / "configs" / "grn_pendulum.yaml"
+runner = CliRunner()
+
+
+def _square(x: int) -> int:
+    return x * x
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_pools_report_every_item(workers):
+    seen: list[tuple[int, int]] = []
+    with report_progress(lambda d, t: seen.append((d, t))), WorkerPool(workers) as pool:
+        assert pool.map(_square, range(5)) == [0, 1, 4, 9, 16]
+    assert seen == [(i, 5) for i in range(6)]
+    with WorkerPool(1) as pool:  # outside the block nothing is reported
+        pool.map(_square, range(2))
+    assert len(seen) == 6
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("progress") / "run"
+    res = runner.invoke(app, ["grn", "evolve", "--config", str(PENDULUM), "--population", "2",
+                              "--generations", "2", "--episodes", "1", "--out", str(out)])  # fmt: skip
+    assert res.exit_code == 0, (res.output, res.exception)
+    assert "gen   2/2" in res.stderr and "generations" in res.stderr and "ETA" in res.stderr
+    assert "gen " not in res.stdout
+    return out
+
+
+def test_evaluate_shows_a_bar_on_stderr_only(run):
+    args = ["grn", "evaluate", str(run), "--objects", "train", "--test-episodes", "3"]
+    res = runner.invoke(app, [*args, "--no-baselines", "--json"])
+    assert res.exit_code == 0, (res.output, res.exception)
+    assert "evaluate (part 1)" in res.stderr and "ETA" in res.stderr and "1/1" in res.stderr
+    assert json.loads(res.stdout.strip().splitlines()[-1])["episodes"] == 3
+    quiet = runner.invoke(app, [*args, "--no-baselines", "--json", "--quiet"])
+    assert quiet.exit_code == 0 and quiet.stderr == ""
+    assert json.loads(quiet.stdout.strip().splitlines()[-1])["episodes"] == 3
