@@ -234,3 +234,22 @@ def test_smoke_evolution_with_the_default_preset_through_the_cli(tmp_path):
 
     loaded = load_run(out)
     assert loaded.encoder.name == "blob" and loaded.genome.P.shape == (4, 4)
+
+
+def test_the_neuromodulated_grn_runs_on_the_blob_front_end():
+    from evodevo.grn.neuromodulated import NeuromodGrnController
+
+    cfg = load_config(GrnConfig, None, {**vision_preset_dict(), "controller": "neuromodulated"})
+    ctrl = NeuromodGrnController(cfg, 3)
+    g = ctrl.init_genome(np.random.default_rng(0))
+    state = ctrl.reset_state([g, g])
+    feats = np.array([[1.0, -0.5, 0.4, 1.0], [0.0, 0.0, 0.0, 0.0]])
+    a = ctrl.step(state, np.arange(2), feats, np.zeros((2, 4)),
+                  [np.random.default_rng(1), np.random.default_rng(2)], np.array([False, True]))  # fmt: skip
+    assert a.shape == (2, 3) and np.all(np.isfinite(a))
+
+
+def vision_preset_dict() -> dict:
+    from evodevo.grn.config import vision_preset
+
+    return vision_preset()

@@ -355,11 +355,12 @@ class GrnConfig:
 
 
 VISION_PRESET: dict[str, Any] = {
-    "dynamics": {"dt": 0.1, "substeps": 20},
+    "dynamics": {"dt": 0.1, "substeps": 10},
     "sensors": {"encoder": "blob", "feature_dim": 4},
-    "genome": {"p_init": "identity"},
-    "evolution": {"early_stop_success": 0.8, "retest_success": 0.7},
-    "evaluation": {"distance_weight": 1.0},
+    "genome": {"ws_std": 1.0, "p_init": "identity"},
+    "mutation": {"p_weight": 0.5, "sigma": 0.2},
+    "evolution": {"generations": 10, "early_stop_success": 0.8, "retest_success": 0.7},
+    "evaluation": {"episodes": 6, "distance_weight": 1.0},
 }
 """The default preset of ``evodevo grn evolve`` (issue 22): what differs from the thesis
 defaults (``configs/grn.yaml``). ``configs/grn_vision.yaml`` spells it out; a test checks both
