@@ -38,7 +38,6 @@ itself. It is computed once per run and saved with it (``frontend.npz``), like t
 from __future__ import annotations
 
 import io
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
