@@ -21,7 +21,8 @@ Usage::
 
     python benchmarks/evolution_speed.py [--quick] [--test-seeds N] [--json]
 
-The last line of output is JSON. ``--quick``: 3 genomes × 2 seeds and 2 policies × 2 seeds.
+The last line of output is JSON. ``--quick`` (a smoke run for ``python -m benchmarks --quick``;
+its ratios mean little): 2 genomes × 1 seed and 2 policies × 1 seed.
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ def run(
     """Time both workloads cached and uncached; see the module docstring.
 
     Args:
-        quick: Small budgets (3 genomes × 2 seeds, 2 policies × 2 seeds).
+        quick: Smoke budgets (2 genomes × 1 seed, 2 policies × 1 seed).
         genomes: Genomes of the generation (default 12).
         seeds: Common episode seeds of the generation (default 10).
         policies: Policies of the test, at most 7 (default 7).
@@ -97,10 +98,10 @@ def run(
     from evodevo.grn.evaluator import Evaluator
     from evodevo.grn.evolution import EPISODE_KEY, training_episodes
 
-    n_gen = genomes if genomes is not None else (3 if quick else 12)
-    n_seeds = seeds if seeds is not None else (2 if quick else 10)
+    n_gen = genomes if genomes is not None else (2 if quick else 12)
+    n_seeds = seeds if seeds is not None else (1 if quick else 10)
     n_pol = min(policies if policies is not None else (2 if quick else 7), 7)
-    n_test = test_seeds if test_seeds is not None else (2 if quick else 200)
+    n_test = test_seeds if test_seeds is not None else (1 if quick else 200)
     config, encoder, controller, best = _load(Path(run_dir))
     rng = np.random.default_rng(24)
     population = [best] + [controller.mutate(best, rng) for _ in range(n_gen - 1)]

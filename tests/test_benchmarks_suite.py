@@ -53,6 +53,8 @@ def _check_ratios(res: dict[str, Any]) -> None:
     assert all(floor[t]["flops"] > 1.0 and floor[t]["params"] > 1.0 for t in list(floor)[1:])
     assert res["dqn_throughput"]["ratio"] > 0
     assert 0.0 < res["grn_step"]["controller_share"] < 1.0
+    evo = res["evolution_speed"]  # cached / uncached episodes per CPU-second (issue 24)
+    assert evo["ratio_generation"] > 0 and evo["ratio_test"] > 0
     env = res["env_speed"]
     assert env["ratio"] is None and "make orig-venv" in env["note"] or env["ratio"] > 0
 
