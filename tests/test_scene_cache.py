@@ -237,3 +237,21 @@ def test_unwritable_folder_falls_back_to_memory_with_one_warning(tmp_path, caplo
             assert cache.get(_key(i)) is not None
     assert not cache.on_disk and len(cache) == 3
     assert len(caplog.records) == 1 and "memory only" in caplog.records[0].getMessage()
+
+
+def test_cache_folder_from_the_environment_variable(tmp_path, monkeypatch) -> None:
+    from evodevo.envs import scene_cache
+
+    folder = str(tmp_path / "from_env")
+    monkeypatch.setenv(scene_cache.CACHE_DIR_ENV, folder)
+    monkeypatch.setattr(scene_cache, "_SHARED", {})
+    env = KukaDiverseObjectEnv(**CHEAP)
+    try:
+        assert env.scene_cache is not None and env.scene_cache.directory == folder
+        assert env.scene_cache.on_disk and os.path.isdir(folder)
+        explicit = KukaDiverseObjectEnv(scene_cache_dir=str(tmp_path / "kw"), **CHEAP)
+        assert explicit.scene_cache is not None
+        assert explicit.scene_cache.directory == str(tmp_path / "kw")  # the argument wins
+        explicit.close()
+    finally:
+        env.close()
