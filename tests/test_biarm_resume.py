@@ -144,11 +144,11 @@ def test_without_resume_an_existing_mid_task_checkpoint_is_not_overwritten(tmp_p
 # ---------------------------------------------------------------------------- the CLI
 CLI_YAML = """
 tasks:
-  - {env_id: CartPole-v1, episodes: 400, max_steps: 60}
+  - {env_id: CartPole-v1, episodes: 80, max_steps: 40}
   - {env_id: Acrobot-v1, episodes: 2, max_steps: 40}
 dqn: {batch_size: 16, learning_starts: 16, target_update: 50}
 modules: {sample_interval: 25}
-eval: {episodes: 2}
+eval: {episodes: 2, validation_episodes: 2, validation_every: 20}
 checkpoint_every: 5
 """
 

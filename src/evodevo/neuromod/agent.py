@@ -115,6 +115,10 @@ class BiarmAgent:
             self.params += [p for p in self.modules.parameters() if p.requires_grad]
         # one flat buffer: zeroing, clipping and Adam are one operation each (flat_params)
         self.flat = flatten(self.params)
+        # the soft target update's tensor lists, taken after flatten() moved the trainable
+        # parameters into the flat buffer (same order: the target is a deep copy)
+        self._online_params = [p.detach() for p in self.net.current.parameters()]
+        self._target_params = [p.detach() for p in self.target.parameters()]
         self.optimizer = torch.optim.Adam([self.flat.param], lr=self.cfg.dqn.lr, fused=True)
         self._group = self.optimizer.param_groups[0]
         self._td_cpp = None
@@ -211,7 +215,9 @@ class BiarmAgent:
         if self.learned and self.modules is not None and self.col > 0:
             self.modules.refresh()  # the per-step update's matrices copy the trained weights
         self.grad_steps += 1
-        if self.grad_steps % dqn.target_update == 0:
+        if dqn.target_mode == "soft":  # Polyak: target <- target + tau (online - target)
+            torch._foreach_lerp_(self._target_params, self._online_params, dqn.tau)
+        elif self.grad_steps % dqn.target_update == 0:
             target.load_state_dict(column.state_dict())
         return loss
 
@@ -227,7 +233,7 @@ class BiarmAgent:
         dqn = self.cfg.dqn
         return load_kernel().td_update(  # type: ignore[union-attr]
             obs, nobs, act, rew, term, list(prev), _EMPTY if st is None else st,
-            online, target, grads, net.gated, dqn.gamma, dqn.huber_delta,
+            online, target, grads, net.gated, dqn.gamma, dqn.huber_delta, dqn.double_q,
         )  # fmt: skip
 
     def _loss_autograd(self, batch: Batch) -> torch.Tensor:
@@ -249,11 +255,19 @@ class BiarmAgent:
                 st_on = self.modules.batch_targets(obs, rew, n_task)
             q_all = column(obs, column.rows(prev, 0, bsz), st_on)
             with torch.no_grad():
-                q_next = target(nobs, column.rows(prev, bsz, 2 * bsz), st).max(1).values
+                nprev = column.rows(prev, bsz, 2 * bsz)
+                q_tgt = target(nobs, nprev, st)
+                q_sel = column(nobs, nprev, st) if dqn.double_q else q_tgt
         else:
             q_all = column(obs)
             with torch.no_grad():
-                q_next = target(nobs).max(1).values
+                q_tgt = target(nobs)
+                q_sel = column(nobs) if dqn.double_q else q_tgt
+        with torch.no_grad():  # double Q: the online column picks, the target evaluates
+            if dqn.double_q:
+                q_next = q_tgt.gather(1, q_sel.argmax(1, keepdim=True)).squeeze(1)
+            else:
+                q_next = q_tgt.max(1).values
         q = q_all.gather(1, act.unsqueeze(1)).squeeze(1)
         with torch.no_grad():
             y = rew + dqn.gamma * (1.0 - term) * q_next

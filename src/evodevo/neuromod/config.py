@@ -77,11 +77,24 @@ class DQNConfig:
     learning_starts: int = doc(64, "transitions in the buffer before the first gradient step")
     gamma: float = doc(0.99, "discount factor")
     eps_start: float = doc(1.0, "epsilon at the start of each task")
-    eps_decay: float = doc(0.995, "epsilon multiplier after each episode")
+    eps_decay: float = doc(0.995, "epsilon multiplier per eps_unit (Table 3.1's 'rate 0.995')")
     eps_min: float = doc(0.01, "epsilon floor")
+    eps_unit: Literal["episode", "step"] = doc(
+        "step", "what eps_decay is applied per: step (environment step) or episode (v1)"
+    )
     huber_delta: float = doc(1.0, "Huber loss threshold")
     grad_clip: float = doc(10.0, "gradient-norm clip")
-    target_update: int = doc(500, "gradient steps between hard target-network updates")
+    target_mode: Literal["hard", "soft"] = doc(
+        "soft", "target network: soft (Polyak, rate tau every gradient step) or hard (v1)"
+    )
+    target_update: int = doc(500, "gradient steps between hard target-network copies (hard)")
+    tau: float = doc(0.005, "soft target rate: target <- (1 - tau) target + tau online (soft)")
+    double_q: bool = doc(False, "double Q-learning: the online column picks the next action")
+    keep: Literal["last", "best"] = doc(
+        "best",
+        "network a task keeps when frozen: last, or best by greedy validation return "
+        "(eval.validation_*)",
+    )
 
     def validate(self) -> None:
         checks = [
@@ -96,11 +109,25 @@ class DQNConfig:
             ("dqn.huber_delta", self.huber_delta > 0),
             ("dqn.grad_clip", self.grad_clip > 0),
             ("dqn.target_update", self.target_update >= 1),
+            ("dqn.tau", 0 < self.tau <= 1),
         ]
         for key, ok in checks:
             if not ok:
                 value = getattr(self, key.split(".")[1])
-                raise ConfigError(f"{key}={value!r} is out of range; see `evodevo biarm config`")
+                hint = " (it must lie in (0, 1])" if key == "dqn.tau" else ""
+                raise ConfigError(
+                    f"{key}={value!r} is out of range{hint}; see `evodevo biarm config`"
+                )
+        for key, value, allowed in (
+            ("eps_unit", self.eps_unit, ("episode", "step")),
+            ("target_mode", self.target_mode, ("hard", "soft")),
+            ("keep", self.keep, ("last", "best")),
+        ):
+            if value not in allowed:
+                raise ConfigError(
+                    f"dqn.{key}={value!r} is not one of {', '.join(allowed)}; "
+                    "see `evodevo biarm config`"
+                )
 
 
 @dataclass
@@ -181,14 +208,38 @@ class ModuleConfig:
 
 @dataclass
 class EvalConfig:
-    """Greedy evaluation (SPEC §1.7)."""
+    """Greedy evaluation (SPEC §1.7) and the validation that ``dqn.keep: best`` selects on
+    (SPEC §1.6), on seeds disjoint from the evaluation seeds."""
 
     episodes: int = doc(20, "greedy evaluation episodes per column")
     seed: int = doc(10_000, "first evaluation seed; episode j uses seed + j (same for all runs)")
+    validation_episodes: int = doc(
+        10, "greedy validation episodes per check (dqn.keep: best); seeds validation_seed + j"
+    )
+    validation_every: int = doc(
+        25, "training episodes between validation checks (and one after the last episode)"
+    )
+    validation_seed: int = doc(
+        20_000, "first validation seed; must not overlap the evaluation seeds"
+    )
 
     def validate(self) -> None:
         if self.episodes < 1:
             raise ConfigError(f"eval.episodes={self.episodes} must be at least 1")
+        if self.validation_episodes < 1:
+            raise ConfigError(
+                f"eval.validation_episodes={self.validation_episodes} must be at least 1"
+            )
+        if self.validation_every < 1:
+            raise ConfigError(f"eval.validation_every={self.validation_every} must be at least 1")
+        lo, hi = self.seed, self.seed + self.episodes
+        vlo, vhi = self.validation_seed, self.validation_seed + self.validation_episodes
+        if vlo < hi and lo < vhi:
+            raise ConfigError(
+                f"eval.validation_seed={self.validation_seed} gives validation seeds "
+                f"{vlo}..{vhi - 1}, which overlap the evaluation seeds {lo}..{hi - 1}; "
+                "choose a validation_seed outside them (selection must never see the test)"
+            )
 
 
 @dataclass

@@ -19,6 +19,7 @@ environment step, module update (Eq. 3.1-3.6), store, one gradient step at the E
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -41,6 +42,7 @@ from evodevo.neuromod.checkpoint import (
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, retention
 from evodevo.neuromod.forgetting import record_returns_after
+from evodevo.neuromod.keep_best import VALIDATION_FIELDS, BestColumn
 from evodevo.neuromod.replay import ReplayBuffer
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.variants import Variant, get_variant
@@ -135,6 +137,7 @@ class TaskRunner:
         self.task_steps = 0
         self.episodes_done = 0
         self.per_step: list[float] = []
+        self.keeper = BestColumn(agent.cfg, spec.episodes) if agent.cfg.dqn.keep == "best" else None
         if resume is None:
             self._obs, _ = self.env.reset(seed=derive(seed, 2, index))
         else:
@@ -153,6 +156,7 @@ class TaskRunner:
             "task_steps": self.task_steps,
             "episodes_done": self.episodes_done,
             "per_step": list(self.per_step),
+            **({"keeper": self.keeper.state()} if self.keeper is not None else {}),
         }
 
     def _load_state(self, data: dict[str, Any]) -> None:
@@ -180,6 +184,26 @@ class TaskRunner:
         self.task_steps = int(data["task_steps"])
         self.episodes_done = int(data["episodes_done"])
         self.per_step = [float(x) for x in data["per_step"]]
+        if self.keeper is not None:
+            if "keeper" not in data:
+                raise CheckpointError(
+                    "the mid-task checkpoint holds no validation state but this run keeps the "
+                    "best column (dqn.keep: best); resume with the run's own config"
+                )
+            self.keeper.load_state(data["keeper"])
+
+    def validate(self, writer: CsvAppender | None = None) -> None:
+        """``dqn.keep: best``: the validation check due after the episode just run, if any
+        (:mod:`evodevo.neuromod.keep_best`)."""
+        if self.keeper is None or not self.keeper.due(self.episodes_done):
+            return
+        row = self.keeper.check(self.agent, self.index, self.spec, self.episodes_done, self.step)
+        if writer is not None:
+            writer.write(row)
+
+    def keep(self) -> dict[str, Any] | None:
+        """End of the task: load the column it keeps (best by validation, or the last)."""
+        return self.keeper.restore(self.agent) if self.keeper is not None else None
 
     def episode(self, max_env_steps: int | None = None) -> int:
         """Run one training episode (stopping early at ``max_env_steps`` task steps)."""
@@ -195,6 +219,9 @@ class TaskRunner:
         mods = agent.modules
         neuromod = self.neuromod
         bs, starts = dqn.batch_size, dqn.learning_starts
+        per_step = dqn.eps_unit == "step"
+        eps_decay, eps_min = dqn.eps_decay, dqn.eps_min
+        eps0 = eps
         step, task_steps = self.step, self.task_steps
         ep = self.episodes_done
         obs = self._obs if ep == 0 else self.env.reset()[0]
@@ -220,6 +247,8 @@ class TaskRunner:
             ret += r
             length += 1
             row[:n] = nxt[:n]
+            if per_step:  # SPEC §1.6: "rate 0.995" read per environment step
+                eps = max(eps_min, eps * eps_decay)
             if term or trunc or (max_env_steps is not None and task_steps >= max_env_steps):
                 break
         dt = time.perf_counter() - t0
@@ -234,16 +263,16 @@ class TaskRunner:
                     "episode": ep,
                     "return": ret,
                     "length": length,
-                    "epsilon": f"{eps:.6g}",
+                    "epsilon": f"{eps0:.6g}",
                     "lr": f"{agent.lr():.6g}",
                     "step": step,
                 }
             )
         if self.hook is not None:
             self.hook(
-                EpisodeInfo(index, spec.env_id, ep, spec.episodes, ret, length, eps, agent.lr())
+                EpisodeInfo(index, spec.env_id, ep, spec.episodes, ret, length, eps0, agent.lr())
             )
-        self.eps = max(dqn.eps_min, eps * dqn.eps_decay)
+        self.eps = eps if per_step else max(dqn.eps_min, eps * dqn.eps_decay)
         self.episodes_done += 1
         return length
 
@@ -384,8 +413,9 @@ def train(
             partial = ckpt["runner"]
         _truncate_csv(run, "metrics.csv", METRIC_FIELDS, step)
         _truncate_csv(run, "neuromod.csv", NEUROMOD_FIELDS, step)
+        _truncate_csv(run, "validation.csv", VALIDATION_FIELDS, step)
     else:
-        for name in ("metrics.csv", "neuromod.csv"):
+        for name in ("metrics.csv", "neuromod.csv", "validation.csv"):
             (run / name).unlink(missing_ok=True)
     seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
     every = cfg.checkpoint_every
@@ -394,6 +424,11 @@ def train(
     with (
         CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
         CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
+        (
+            CsvAppender(run / "validation.csv", VALIDATION_FIELDS)
+            if cfg.dqn.keep == "best"
+            else contextlib.nullcontext()
+        ) as validation,
     ):
         for i in range(start, len(specs)):
             spec = specs[i]
@@ -404,6 +439,7 @@ def train(
             try:
                 while runner.episodes_done < spec.episodes:
                     runner.episode()
+                    runner.validate(validation)
                     k = runner.episodes_done
                     stopping = stop is not None and stop.requested
                     if k < spec.episodes and ((every and k % every == 0) or stopping):
@@ -425,9 +461,16 @@ def train(
             finally:
                 runner.close()
             step, per_step = runner.step, runner.per_step
+            # dqn.keep: best loads the best validated parameters; the last network's returns on
+            # the evaluation seeds are recorded beside (reporting only, never for selection)
+            last = evaluate_column(agent, i, spec, seeds) if runner.keeper is not None else None
+            kept = runner.keep()
+            if kept is not None:
+                kept["last_network_returns"] = last
             initial = evaluate_column(agent, i, spec, seeds)
             results.append(
                 {
+                    **({"validation": kept} if kept is not None else {}),
                     "env_id": spec.env_id,
                     "episodes": spec.episodes,
                     "max_steps": spec.max_steps,

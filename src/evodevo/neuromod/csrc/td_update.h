@@ -12,6 +12,7 @@
 //          g = sigmoid(states . ctx_w)  (scalar context gate, Eq. 3.8)
 //
 //   y = r + gamma (1 - terminated) max_a q'(x_next)     (target column, no gradient)
+//   double Q (van Hasselt et al. 2016): y = r + gamma (1 - terminated) q'(x_next)[argmax_a q(x_next)]
 //   loss = mean_i huber(q(x_i)[a_i] - y_i; delta)
 //
 // The gradients of every trainable tensor of the column are written into `grads` (the views of
@@ -88,7 +89,7 @@ inline torch::Tensor td_update(torch::Tensor x, torch::Tensor nx, torch::Tensor 
                                std::vector<torch::Tensor> online,
                                std::vector<torch::Tensor> target,
                                std::vector<torch::Tensor> grads, bool gated, double gamma,
-                               double delta) {
+                               double delta, bool double_q) {
   const size_t n_par = prev.empty() ? 6 : (gated ? 11 : 8);
   TORCH_CHECK(online.size() == n_par && target.size() == n_par && grads.size() == n_par,
               "td_update: ", n_par, " parameter, target and gradient tensors expected");
@@ -102,7 +103,14 @@ inline torch::Tensor td_update(torch::Tensor x, torch::Tensor nx, torch::Tensor 
   const detail::ColumnOut tg =
       detail::column_forward(nx, target, prev, bsz, bsz, states, gated, false);
   // TD target and the Huber loss on the taken actions; dq is its gradient w.r.t. q
-  torch::Tensor q_next = std::get<0>(tg.q.max(1));
+  torch::Tensor q_next;
+  if (double_q) {  // the online column picks the next action, the target column values it
+    const detail::ColumnOut sel =
+        detail::column_forward(nx, online, prev, bsz, bsz, states, gated, false);
+    q_next = tg.q.gather(1, std::get<1>(sel.q.max(1)).unsqueeze(1)).squeeze(1);
+  } else {
+    q_next = std::get<0>(tg.q.max(1));
+  }
   torch::Tensor y = rew + gamma * (1.0 - term) * q_next;
   torch::Tensor a = act.to(at::kLong).unsqueeze(1);
   torch::Tensor diff = on.q.gather(1, a).squeeze(1) - y;

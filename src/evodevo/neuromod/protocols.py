@@ -1,0 +1,65 @@
+"""Named DQN protocols: the details Table 3.1 leaves open, as presets (SPEC §1.6; issue 21).
+
+A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig`'s defaults
+(only keys Table 3.1 does not fix). ``default`` is the config's defaults, the protocol the
+measured sweep picked (``docs/results/biarm.md``); ``v1`` is the first protocol, under which
+the committed first results (``docs/results/thesis/biarm``) were measured: ε × 0.995 per
+*episode*, a hard target copy every 500 gradient steps, no double Q, the last network kept.
+``configs/biarm.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the same two configs as files.
+
+>>> protocol_config("v1").dqn.eps_unit
+'episode'
+>>> protocol_config("default").dqn.eps_unit
+'step'
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from evodevo.config import from_dict, to_dict
+from evodevo.errors import ConfigError
+from evodevo.neuromod.config import BiarmConfig
+
+__all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
+
+#: name -> overrides of the config defaults (nested sections).
+PROTOCOLS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "v1": {
+        "dqn": {
+            "eps_unit": "episode",
+            "target_mode": "hard",
+            "target_update": 500,
+            "double_q": False,
+            "keep": "last",
+        }
+    },
+}
+
+
+def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def apply_protocol(data: Mapping[str, Any], name: str) -> dict[str, Any]:
+    """Overrides ``data`` (nested dict, e.g. from ``--set``) on top of protocol ``name``'s
+    keys: the CLI applies the result over the config file, so the order is defaults, config
+    file, protocol, ``--set``."""
+    if name not in PROTOCOLS:
+        raise ConfigError(
+            f"protocol {name!r} is not one of {', '.join(PROTOCOLS)}; see docs/results/biarm.md"
+        )
+    return _merge(_merge({}, PROTOCOLS[name]), data)
+
+
+def protocol_config(name: str) -> BiarmConfig:
+    """The full config of protocol ``name``."""
+    return from_dict(BiarmConfig, _merge(to_dict(BiarmConfig()), apply_protocol({}, name)))

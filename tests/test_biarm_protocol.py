@@ -1,0 +1,246 @@
+"""The DQN protocol details Table 3.1 leaves open (SPEC §1.6; issue 21): ε unit, target
+update, double Q, which network a task keeps, the v1 preset and the sweep."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import torch
+import yaml
+
+from evodevo.config import from_dict, load_config, to_dict
+from evodevo.errors import ConfigError
+from evodevo.neuromod import train
+from evodevo.neuromod.agent import BiarmAgent
+from evodevo.neuromod.columns import huber
+from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.keep_best import BestColumn
+from evodevo.neuromod.protocols import PROTOCOLS, protocol_config
+from evodevo.neuromod.replay import ReplayBuffer
+from evodevo.neuromod.tasks import resolve_tasks
+from evodevo.neuromod.trainer import TIMING_KEYS, TaskRunner
+from evodevo.neuromod.variants import get_variant
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).with_name("data")
+
+
+def cfg_with(**dqn: Any) -> BiarmConfig:
+    return from_dict(
+        BiarmConfig,
+        {
+            "tasks": [{"env_id": "CartPole-v1", "episodes": 3, "max_steps": 40}],
+            "dqn": {"batch_size": 8, "learning_starts": 8, **dqn},
+            "eval": {"episodes": 2},
+        },
+    )
+
+
+# ---------------------------------------------------------------- epsilon
+@pytest.mark.parametrize("unit", ["step", "episode"])
+def test_epsilon_after_k_steps_or_episodes(unit):
+    cfg = cfg_with(eps_unit=unit, eps_decay=0.9, eps_min=0.05)
+    specs, d_max = resolve_tasks(cfg)
+    agent = BiarmAgent(cfg, get_variant("pnn"), d_max, 0)
+    runner = TaskRunner(agent, specs[0], 0, seed=0)
+    try:
+        lengths = [runner.episode() for _ in range(2)]
+    finally:
+        runner.close()
+    k = sum(lengths) if unit == "step" else 2
+    expected = 1.0
+    for _ in range(k):  # by hand: multiply, then clip at the floor
+        expected = max(0.05, expected * 0.9)
+    assert runner.eps == pytest.approx(expected, rel=0, abs=1e-12)
+    assert k > 2 or unit == "episode"
+
+
+# ---------------------------------------------------------------- target network
+def _agent_after_updates(n: int, **dqn: Any) -> BiarmAgent:
+    cfg = cfg_with(**dqn)
+    agent = BiarmAgent(cfg, get_variant("pnn"), 4, 0)
+    agent.begin_task(2)
+    buf = ReplayBuffer(64, 4)
+    rng = np.random.default_rng(0)
+    for _ in range(32):
+        buf.add(rng.normal(size=4).astype(np.float32), int(rng.integers(2)), 1.0,
+                rng.normal(size=4).astype(np.float32), bool(rng.random() < 0.1), 1.0)  # fmt: skip
+    for _ in range(n):
+        agent.update(buf.sample(rng, 8))
+    return agent
+
+
+def test_soft_update_with_tau_one_is_a_hard_copy():
+    soft = _agent_after_updates(3, target_mode="soft", tau=1.0)
+    hard = _agent_after_updates(3, target_mode="hard", target_update=1)
+    assert soft.target is not None and hard.target is not None
+    s_t, h_t = soft.target.state_dict(), hard.target.state_dict()
+    online = soft.net.current.state_dict()
+    for k in s_t:
+        assert torch.equal(s_t[k], h_t[k]), k
+        assert torch.equal(s_t[k], online[k]), k
+
+
+def test_soft_update_moves_target_by_tau():
+    agent = _agent_after_updates(0, target_mode="soft", tau=0.25)
+    assert agent.target is not None
+    before = {k: v.clone() for k, v in agent.target.state_dict().items()}
+    rng = np.random.default_rng(1)
+    buf = ReplayBuffer(64, 4)
+    for _ in range(16):
+        buf.add(rng.normal(size=4).astype(np.float32), 1, 0.5, rng.normal(size=4).astype(np.float32), False, 1.0)  # fmt: skip
+    agent.update(buf.sample(rng, 8))
+    online = agent.net.current.state_dict()
+    for k, v in agent.target.state_dict().items():
+        assert torch.allclose(v, before[k] + 0.25 * (online[k] - before[k]), atol=1e-6), k
+
+
+# ---------------------------------------------------------------- double Q
+@pytest.mark.parametrize("kernel", ["torch", "cpp"])
+@pytest.mark.parametrize("double_q", [False, True])
+def test_double_q_target_on_a_hand_built_batch(kernel, double_q):
+    if kernel == "cpp":
+        from evodevo.neuromod.kernels import load
+
+        if load() is None:
+            pytest.skip("C++ kernels unavailable")
+    cfg = cfg_with(double_q=double_q, target_mode="hard", target_update=10_000)
+    cfg.network.lateral_kernel = kernel
+    agent = BiarmAgent(cfg, get_variant("pnn"), 4, 0)
+    agent.begin_task(3)
+    assert agent.target is not None
+    with torch.no_grad():  # a target that disagrees with the online column
+        for p in agent.target.parameters():
+            p.mul_(-1.5)
+    g = torch.Generator().manual_seed(3)
+    obs, nobs = torch.randn(6, 4, generator=g), torch.randn(6, 4, generator=g)
+    act = torch.tensor([0, 1, 2, 0, 1, 2])
+    rew = torch.tensor([1.0, 0.0, -1.0, 0.5, 2.0, 0.0])
+    term = torch.tensor([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+    batch = (obs, nobs, act, rew, term, torch.ones(6))
+    with torch.no_grad():
+        q_on_next = agent.net.current(nobs)
+        q_tg_next = agent.target(nobs)
+        if double_q:  # the online column picks, the target column values
+            q_next = q_tg_next[torch.arange(6), q_on_next.argmax(1)]
+        else:
+            q_next = q_tg_next.max(1).values
+        y = rew + 0.99 * (1 - term) * q_next
+        q = agent.net.current(obs)[torch.arange(6), act]
+        expected = float(huber(q, y, 1.0))
+    # the two readings must really differ on this batch, or the test could not fail
+    assert not torch.equal(q_on_next.argmax(1), q_tg_next.argmax(1))
+    if kernel == "cpp":
+        assert agent._td_cpp is not None
+        loss = float(agent._loss_cpp(batch))
+    else:
+        loss = float(agent._loss_autograd(batch).detach())
+    assert loss == pytest.approx(expected, rel=1e-5)
+
+
+# ---------------------------------------------------------------- keep the best column
+def test_best_column_kept_and_never_reads_evaluation_seeds(monkeypatch):
+    cfg = cfg_with(keep="best")
+    cfg.eval.validation_every = 1
+    specs, d_max = resolve_tasks(cfg)
+    agent = BiarmAgent(cfg, get_variant("pnn"), d_max, 0)
+    agent.begin_task(2)
+    seen: list[list[int]] = []
+    scripted = iter([10.0, 30.0, 20.0])
+
+    def fake_eval(agent_: Any, col: int, task: Any, seeds: list[int]) -> list[float]:
+        seen.append(list(seeds))
+        return [next(scripted)] * len(seeds)
+
+    monkeypatch.setattr("evodevo.neuromod.keep_best.evaluate_column", fake_eval)
+    keeper = BestColumn(cfg, episodes=3)
+    states = []
+    for k in range(1, 4):
+        with torch.no_grad():
+            agent.net.current.w1.add_(float(k))  # a different column at every check
+        states.append(agent.net.current.w1.detach().clone())
+        keeper.check(agent, 0, specs[0], k, step=10 * k)
+    record = keeper.restore(agent)
+    assert torch.equal(agent.net.current.w1, states[1])  # the check that returned 30
+    assert record["best_episode"] == 2 and record["best_validation_return"] == 30.0
+    evaluation = set(range(cfg.eval.seed, cfg.eval.seed + cfg.eval.episodes))
+    assert seen and all(not (set(s) & evaluation) for s in seen)
+
+
+def test_keep_best_run_records_validation(tmp_path):
+    cfg = cfg_with(keep="best")
+    cfg.eval.validation_every = 2
+    cfg.eval.validation_episodes = 2
+    summary = train(cfg, "pnn", 0, tmp_path)
+    task = summary["tasks"][0]
+    assert task["validation"]["kept"] == "best"
+    assert task["validation"]["validation_checks"] == 2  # after episode 2 and the last (3)
+    assert len(task["validation"]["last_network_returns"]) == cfg.eval.episodes
+    rows = (tmp_path / "validation.csv").read_text().splitlines()
+    assert len(rows) == 3 and rows[0].startswith("task,env_id,episode")
+
+
+# ---------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("data", "needle"),
+    [
+        ({"dqn": {"eps_unit": "minute"}}, ("dqn.eps_unit", "'minute'")),
+        ({"dqn": {"target_mode": "polyak"}}, ("dqn.target_mode", "'polyak'")),
+        ({"dqn": {"keep": "first"}}, ("dqn.keep", "'first'")),
+        ({"dqn": {"tau": 0.0}}, ("dqn.tau=0.0", "(0, 1]")),
+        ({"dqn": {"tau": 1.5}}, ("dqn.tau=1.5", "(0, 1]")),
+        ({"eval": {"validation_episodes": 0}}, ("eval.validation_episodes=0",)),
+        ({"eval": {"validation_seed": 10_010}}, ("eval.validation_seed=10010", "overlap")),
+    ],
+)
+def test_bad_protocol_values_are_one_clear_error(data, needle):
+    with pytest.raises(ConfigError) as info:
+        load_config(BiarmConfig, None, data)
+    message = str(info.value)
+    assert "\n" not in message and all(n in message for n in needle), message
+
+
+# ---------------------------------------------------------------- presets
+def test_config_files_match_the_protocols():
+    default = yaml.safe_load((ROOT / "configs" / "biarm.yaml").read_text())
+    assert to_dict(from_dict(BiarmConfig, default)) == to_dict(protocol_config("default"))
+    v1 = yaml.safe_load((ROOT / "configs" / "biarm_spec_v1.yaml").read_text())
+    assert to_dict(from_dict(BiarmConfig, v1)) == to_dict(protocol_config("v1"))
+    assert set(PROTOCOLS) == {"default", "v1"}
+
+
+def _strip(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _strip(v) for k, v in obj.items() if k not in TIMING_KEYS}
+    if isinstance(obj, list):
+        return [_strip(v) for v in obj]
+    return obj
+
+
+@pytest.mark.parametrize("variant", ["pnn", "biarm"])
+def test_v1_preset_reproduces_the_first_protocol_bit_for_bit(tmp_path, variant):
+    """``tests/data/v1_summary_{variant}.json`` was written by the code before issue 21 (commit
+    0018ec7) for this tiny run; the v1 preset must give the same summary, float for float."""
+    data: dict[str, Any] = {
+        "tasks": [
+            {"env_id": "CartPole-v1", "episodes": 6, "max_steps": 500},
+            {"env_id": "Acrobot-v1", "episodes": 2, "max_steps": 100},
+        ],
+        "checkpoint_every": 0,
+        "eval": {"episodes": 2},
+        "dqn": {"target_update": 25, "learning_starts": 32},
+    }
+    from evodevo.neuromod.protocols import apply_protocol
+
+    cfg = load_config(BiarmConfig, None, apply_protocol(data, "v1"))
+    summary = _strip(json.loads(json.dumps(train(cfg, variant, 3, tmp_path))))
+    reference = json.loads((DATA / f"v1_summary_{variant}.json").read_text())
+    if reference.get("lateral_kernel") != summary.get("lateral_kernel"):
+        pytest.skip("the reference was written with the other lateral kernel")
+    assert summary == reference
