@@ -38,8 +38,11 @@ def _load(
     tasks: str | None,
     episodes_scale: float | None,
     overrides: list[str] | None = None,
+    protocol: str | None = None,
 ) -> Any:
-    """Config from YAML + CLI options; every input error raised here, before training."""
+    """Config from YAML + CLI options; every input error raised here, before training.
+
+    Order: defaults, ``config`` file, ``protocol`` (SPEC §1.6 presets), ``--set``."""
     import yaml
 
     from evodevo.config import load_config
@@ -64,6 +67,10 @@ def _load(
             )
         extra["episodes_scale"] = episodes_scale
     ids = parse_list(tasks, "--tasks")
+    if protocol is not None:
+        from evodevo.neuromod.protocols import apply_protocol
+
+        extra = apply_protocol(extra, protocol)
     cfg = load_config(BiarmConfig, config, extra)
     if ids:
         from evodevo.config import replace
@@ -108,6 +115,9 @@ def train(
     ),
     config: Path | None = typer.Option(None, help="YAML config (configs/biarm.yaml keys)."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
+    protocol: str | None = typer.Option(
+        None, help="DQN protocol preset (SPEC 1.6): default or v1 (the first results' protocol)."
+    ),
     resume: bool = typer.Option(
         False,
         help="Continue from the newest checkpoint in --out (after a task, or every "
@@ -134,12 +144,18 @@ def train(
             f"--resume: {str(out)!r} {where}; check --out, or start a new run without --resume"
         )
     if resume:
-        own = config is not None or tasks is not None or episodes_scale is not None or bool(set_)
+        own = (
+            config is not None
+            or tasks is not None
+            or episodes_scale is not None
+            or bool(set_)
+            or protocol is not None
+        )
         variant, seed, cfg = _resume_settings(out, variant, seed, own)
     var = get_variant(variant if variant is not None else "biarm")
     seed = 0 if seed is None else seed
     if cfg is None:
-        cfg = _load(config, tasks, episodes_scale, set_)
+        cfg = _load(config, tasks, episodes_scale, set_, protocol)
     resolve_tasks(cfg)
     set_single_thread()
     with GracefulStop() as stop:
@@ -207,6 +223,9 @@ def compare(
     workers: int = typer.Option(2, help="Parallel runs (worker processes or Ray actors)."),
     config: Path | None = typer.Option(None, help="YAML config."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
+    protocol: str | None = typer.Option(
+        None, help="DQN protocol preset (SPEC 1.6): default or v1 (the first results' protocol)."
+    ),
     backend: str = typer.Option(
         "local", help="local (process pool) or ray (one Ray task per run)."
     ),
@@ -231,7 +250,7 @@ def compare(
     for v in names:
         get_variant(v)
     seed_list = parse_seeds(seeds)
-    cfg = _load(config, tasks, episodes_scale, set_)
+    cfg = _load(config, tasks, episodes_scale, set_, protocol)
     set_single_thread()
     check_backend(backend, address, workers)
     from evodevo.progress import CommandProgress
