@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["RayPool", "local_ray_options"]
+__all__ = ["RayPool", "local_ray_options", "use_cluster_token"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -69,6 +69,29 @@ def local_ray_options(num_cpus: int) -> dict[str, Any]:
     }
 
 
+def use_cluster_token() -> bool:
+    """After a refused join: switch token authentication on if this machine has a token.
+
+    ``ray start --head`` enables token authentication when a token exists (``~/.ray/auth_token``
+    is written by any private local Ray, e.g. an earlier ``--backend ray`` run), but a driver
+    joining with ``ray.init(address=...)`` sends it only with ``RAY_AUTH_MODE=token``; without
+    it the head answers "Missing authorization header". So a join is tried as configured first
+    (token mode on a head without authentication breaks its workers' calls back to the driver),
+    and only when refused, with ``RAY_AUTH_MODE`` unset and a token found (that file,
+    ``RAY_AUTH_TOKEN`` or ``RAY_AUTH_TOKEN_PATH``), token mode is switched on for this process
+    and the join retried. Returns True if it switched token mode on.
+    """
+    if os.environ.get("RAY_AUTH_MODE") is not None:  # explicit: respected as it is
+        return False
+    try:
+        from ray._private.authentication.authentication_token_setup import (
+            maybe_enable_token_auth_if_token_available,
+        )
+    except ImportError:  # a Ray without token authentication
+        return False
+    return bool(maybe_enable_token_auth_if_token_available(warn_if_disabled=False))
+
+
 class RayPool:
     """Ordered ``map`` over Ray actors that each own their environment.
 
@@ -104,11 +127,20 @@ class RayPool:
             else:
                 kwargs["address"] = address
             try:
-                self.ray.init(**kwargs)
+                try:
+                    self.ray.init(**kwargs)
+                except ConnectionError:
+                    # a head with token authentication refuses a driver without the token
+                    if address is None or not use_cluster_token():
+                        raise
+                    self.ray.init(**kwargs)
             except ConnectionError as exc:
                 raise EvodevoError(
                     f"cannot reach a Ray cluster at {address!r} ({exc}); start one with "
-                    "'ray start --head' or use --backend local"
+                    "'ray start --head'. A head started with token authentication (Ray's "
+                    "default) needs its token here: ~/.ray/auth_token, RAY_AUTH_TOKEN or "
+                    f"RAY_AUTH_TOKEN_PATH, with RAY_AUTH_MODE=token (now "
+                    f"{os.environ.get('RAY_AUTH_MODE', 'unset')}); or use --backend local"
                 ) from None
             self._owns_ray = True
         self._actor_cls = self.ray.remote(num_cpus=1)(_Runner)
