@@ -15,6 +15,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from evodevo.config import load_config, to_dict
 from evodevo.errors import EvodevoError
@@ -80,37 +81,55 @@ def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list
     return runs[:1] + controls + runs[1:]
 
 
+def _biarm_tasks(b: Any) -> list[str]:
+    """``biarm compare`` options for the budget's tasks: ``--tasks`` and ``--episodes-scale``,
+    or, with ``task_episodes``, the whole task list with each task's episodes."""
+    if not b.task_episodes:
+        return ["--episodes-scale", repr(b.episodes_scale), "--tasks", ",".join(b.tasks)]
+    from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig
+
+    thesis = {e: (n, m) for e, n, m in THESIS_TASKS}
+    default = BiarmConfig().default_episodes
+    tasks = []
+    for env in b.tasks:
+        n, m = thesis.get(env, (default, None))
+        episodes = b.task_episodes.get(env, max(1, int(round(n * b.episodes_scale))))
+        tasks.append({"env_id": env, "episodes": int(episodes), "max_steps": m})
+    return ["--set", "tasks=" + json.dumps(tasks)]
+
+
 def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
     """Every step of the budget, in order."""
     w = str(cfg.workers)
     steps: list[Step] = []
     if cfg.biarm.enabled:
         b = cfg.biarm
-        bdir = out / "biarm"
-        steps.append(
-            Step(
-                "biarm-compare",
-                [
-                    "biarm",
-                    "compare",
-                    "--variants",
-                    ",".join(b.variants),
-                    "--seeds",
-                    b.seeds,
-                    "--episodes-scale",
-                    repr(b.episodes_scale),
-                    "--tasks",
-                    ",".join(b.tasks),
-                    "--set",
-                    f"eval.episodes={b.eval_episodes}",
-                    "--workers",
-                    w,
-                    "--out",
-                    str(bdir),
-                ],
-                [bdir / "table_3_2.md"],
+        grids = [("biarm", b.protocol), *b.other_protocols.items()]
+        for folder, protocol in grids:
+            bdir = out / folder
+            steps.append(
+                Step(
+                    "biarm-compare" if folder == "biarm" else f"biarm-compare-{protocol}",
+                    [
+                        "biarm",
+                        "compare",
+                        "--variants",
+                        ",".join(b.variants),
+                        "--seeds",
+                        b.seeds,
+                        "--protocol",
+                        protocol,
+                        *_biarm_tasks(b),
+                        "--set",
+                        f"eval.episodes={b.eval_episodes}",
+                        "--workers",
+                        w,
+                        "--out",
+                        str(bdir),
+                    ],
+                    [bdir / "table_3_2.md"],
+                )
             )
-        )
     if cfg.grn.enabled:
         g = cfg.grn
         # The trivial policies run once per object split; every evaluation reuses them

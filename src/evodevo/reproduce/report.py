@@ -19,6 +19,7 @@ from evodevo.grn.ablation_pooling import (
 )
 from evodevo.neuromod.compare import collect
 from evodevo.reproduce.biarm_differences import biarm_differences
+from evodevo.reproduce.biarm_protocols import grids, protocol_table
 from evodevo.reproduce.budget import ReproduceConfig, preset
 from evodevo.reproduce.html_report import markdown_to_html
 from evodevo.reproduce.kuka_report import kuka_section
@@ -57,18 +58,33 @@ def _pooled(results: list[dict[str, Any]], key: str | None = None) -> tuple[int,
 
 
 def biarm_section(out: Path, cfg: ReproduceConfig) -> list[str]:
-    """The BIARM tables written by ``evodevo biarm compare`` (3.2-3.5) and their figures."""
-    bdir = out / "biarm"
+    """Every BIARM grid of the budget (one per DQN protocol, SPEC §1.6), side by side first."""
     b = cfg.biarm
+    episodes = f"episodes × {b.episodes_scale:g} of the thesis' (400/500/800/800)" + (
+        "".join(f", {env} {n}" for env, n in b.task_episodes.items())
+    )
     lines = [
         "## BIARM (thesis Chapter 3)",
         "",
-        f"Budget: tasks {', '.join(b.tasks)}; episodes × {b.episodes_scale:g} of the thesis' "
-        f"(400/500/800/800); variants {', '.join(b.variants)}; seeds {b.seeds} "
-        f"({len(parse_seeds(b.seeds))}); {b.eval_episodes} greedy evaluation episodes per task "
-        "with fixed seeds. Thesis numbers are in their own column.",
+        f"Budget: tasks {', '.join(b.tasks)}; {episodes}; variants {', '.join(b.variants)}; "
+        f"seeds {b.seeds} ({len(parse_seeds(b.seeds))}); {b.eval_episodes} greedy evaluation "
+        "episodes per task with fixed seeds. Thesis numbers are in their own column. DQN "
+        "protocols (SPEC §1.6): "
+        + "; ".join(f"`{p}` in `{f}/`" for f, p in grids(cfg))
+        + ".",
         "",
     ]
+    lines += protocol_table(out, cfg)
+    for folder, protocol in grids(cfg):
+        lines += _biarm_grid(out, cfg, folder, protocol)
+    return lines
+
+
+def _biarm_grid(out: Path, cfg: ReproduceConfig, folder: str, protocol: str) -> list[str]:
+    """The tables written by ``evodevo biarm compare`` (3.2-3.5) of one grid and its figures."""
+    bdir = out / folder
+    b = cfg.biarm
+    lines = [f"### BIARM under the `{protocol}` protocol (`{folder}/`)", ""]
     try:
         runs = collect(bdir)
     except EvodevoError:  # no finished run (yet)
@@ -93,15 +109,15 @@ def biarm_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         p = bdir / f"{name}.md"
         if p.is_file():
             found = True
-            lines += [f"### {title}", "", _drop_heading(p.read_text()), ""]
+            lines += [f"#### {title}", "", _drop_heading(p.read_text()), ""]
     if not found:
         lines += ["(no BIARM tables: the BIARM part was not run or did not finish)", ""]
         return lines
-    lines += ["### Where we differ and why", ""]
+    lines += ["#### Where we differ and why", ""]
     lines += biarm_differences(runs or collect(bdir), b.episodes_scale)
     figs = sorted(bdir.glob("*.png"))
     if figs:
-        lines += ["### Figures", ""] + [f"![{f.stem}]({f.relative_to(out)})" for f in figs] + [""]
+        lines += ["#### Figures", ""] + [f"![{f.stem}]({f.relative_to(out)})" for f in figs] + [""]
     return lines
 
 
