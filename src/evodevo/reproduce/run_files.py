@@ -25,6 +25,7 @@ TRIVIAL_TITLES = {
     "zero": "all-zero actions",
     "random": "uniform-random actions",
     "turn": "constant turn (dx = dy = 0, d-angle = −1)",
+    "scripted": "scripted image-only pipeline (blob nearest the gripper, move over it, turn)",
 }
 
 
