@@ -1,0 +1,86 @@
+"""Tables of docs/results/grn.md, "The GRN that sees" (issue 22), from the saved per-episode files.
+
+Usage: python docs/results/grn_vision/analyse.py  (reads docs/results/grn_vision/*, thesis/grn/*)
+Every policy row is on the same 200 held-out-object test episodes (test seed 10000); pairs are
+compared with the exact McNemar test (evodevo.stats.mcnemar_exact).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from evodevo.reproduce.run_files import paired, successes
+from evodevo.stats import rate
+
+HERE = Path(__file__).resolve().parent
+THESIS = HERE.parent / "thesis" / "grn"
+BASE = HERE / "baselines_test_episodes.csv"
+
+
+def fmt(k: int, n: int) -> str:
+    r = rate(k, n)
+    return f"{100 * r.rate:.1f} % [{100 * r.ci_low:.1f}, {100 * r.ci_high:.1f}] ({k}/{n})"
+
+
+def pfmt(pair: tuple[float, float] | None) -> str:
+    return "—" if pair is None else f"{100 * pair[0]:+.1f} (p = {pair[1]:.2g})"
+
+
+def main() -> None:
+    refs = {
+        "constant turn": successes(BASE, "turn"),
+        "scripted image-only pipeline": successes(BASE, "scripted"),
+        "all-zero": successes(BASE, "zero"),
+        "uniform random": successes(BASE, "random"),
+        "open-loop sequence (thesis preset, seed 0)": successes(
+            THESIS / "openloop_s0" / "eval_test_0_episodes.csv", "genome"
+        ),
+        "thesis GRN, seed 0": successes(
+            THESIS / "plain_s0" / "eval_test_0.03_episodes.csv", "genome"
+        ),
+    }
+    seeds = sorted(HERE.glob("vision_s*"))
+    blind = {}
+    for b in sorted(HERE.glob("vision_blind_s*")):
+        blind[b.name.rsplit("_s", 1)[1]] = successes(b / "eval_test_0_episodes.csv", "genome")
+    print("| policy | test success, clean [Wilson 95 %] | noise 0.03 | training episodes | wall |")
+    print("|---|---|---|---|---|")
+    pooled_k = pooled_n = 0
+    grn: dict[str, list[int]] = {}
+    for d in seeds:
+        s = d.name.rsplit("_s", 1)[1]
+        ev = d / "eval_test_0.03_episodes.csv"
+        clean, noisy = successes(ev, "genome"), successes(ev, "genome_noisy")
+        if clean is None:
+            continue
+        grn[s] = clean
+        summ = json.loads((d / "summary.json").read_text())
+        pooled_k, pooled_n = pooled_k + sum(clean), pooled_n + len(clean)
+        nz = fmt(sum(noisy), len(noisy)) if noisy else "—"
+        print(
+            f"| **GRN, vision preset, seed {s}** | **{fmt(sum(clean), len(clean))}** | {nz} | "
+            f"{summ['episodes_run']} | {summ['wall_s'] / 60:.1f} min |"
+        )
+    if pooled_n:
+        print(f"| GRN, vision preset, pooled | {fmt(pooled_k, pooled_n)} | | | |")
+    for s, b in blind.items():
+        if b:
+            summ = json.loads((HERE / f"vision_blind_s{s}" / "summary.json").read_text())
+            print(
+                f"| blind GRN, vision preset, seed {s} | {fmt(sum(b), len(b))} | — | "
+                f"{summ['episodes_run']} | {summ['wall_s'] / 60:.1f} min |"
+            )
+    for name, e in refs.items():
+        if e:
+            print(f"| {name} | {fmt(sum(e), len(e))} | | | |")
+    print()
+    cols = list(grn)
+    print("| GRN seed − policy, points (exact McNemar p) | " + " | ".join(f"seed {s}" for s in cols) + " |")
+    print("|---|" + "---|" * len(cols))
+    for name, e in {**{f"blind GRN seed {s}": b for s, b in blind.items()}, **refs}.items():
+        print(f"| {name} | " + " | ".join(pfmt(paired(grn[s], e)) for s in cols) + " |")
+
+
+if __name__ == "__main__":
+    main()
