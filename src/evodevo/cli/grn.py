@@ -6,6 +6,9 @@ Every command limits torch/BLAS to one thread first (``set_single_thread``); use
 
 from __future__ import annotations
 
+import contextlib
+import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -72,6 +75,57 @@ def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+@contextlib.contextmanager
+def _remove_if_failed(out: Path, fresh: bool) -> Iterator[None]:
+    """Remove ``out`` again if this command created it and a user error (e.g. an environment
+    that cannot be made) stops the run before its first checkpoint: no half-written run."""
+    try:
+        yield
+    except EvodevoError:
+        if fresh and out.is_dir() and not (out / "checkpoints" / "checkpoint.npz").exists():
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _env_overrides(env_id: str, cfg: Any) -> dict[str, Any]:
+    """Config changes that drive ``env_id``, its sizes read from its spaces (``--env``).
+
+    A flat Box observation is the sensor vector (``n_visual`` 0, ``n_proprio`` its size, its
+    Box bounds mapped onto ``sensors.vector_range``; no camera, so no visual noise, no
+    front-end calibration and no simulator shaping); an RGB image goes through the config's
+    front-end as for the Kuka env. The actions' size and bounds are read by the evaluator.
+    """
+    import gymnasium as gym
+
+    from evodevo.grn.evaluator import action_dims, is_vector_observation, make_env
+    from evodevo.grn.frontends import frontend_dim
+
+    same = env_id == cfg.env.id
+    kwargs = dict(cfg.env.kwargs) if same else {}
+    env = make_env(env_id, kwargs)
+    try:
+        action_dims(env.action_space)  # a one-line error for anything but flat Box actions
+        space = env.observation_space
+    finally:
+        env.close()
+    out: dict[str, Any] = {"env": {"id": env_id, "kwargs": kwargs}}
+    if is_vector_observation(space):
+        out["sensors"] = {
+            "n_visual": 0,
+            "n_proprio": int(space.shape[0]),  # type: ignore[index]
+            "encoder": "cnn",
+            "feature_dim": frontend_dim("cnn"),
+        }
+        out["genome"] = {"p_init": "normal"}
+        out["evaluation"] = {"noisy_fraction": 0.0, "distance_weight": 0.0}
+    elif not (isinstance(space, gym.spaces.Box) and len(space.shape) == 3 and space.shape[-1] == 3):
+        raise EvodevoError(
+            f"--env {env_id}: its observation space {space} is neither a flat Box vector nor "
+            "an RGB image (H, W, 3); the GRN reads one of those"
+        )
+    return out
+
+
 @app.command()
 def evolve(
     out: Path = typer.Option(..., "--out", help="Run directory (created)."),
@@ -90,6 +144,12 @@ def evolve(
         "vision",
         help="Without --config: vision (configs/grn_vision.yaml: blob front-end, substeps, shaped "
         "training fitness; issue 22) or thesis (configs/grn.yaml, the thesis protocol).",
+    ),
+    env_id: str | None = typer.Option(
+        None,
+        "--env",
+        help="Any Gymnasium env with a Box observation (a vector or an RGB image) and Box "
+        "actions; sensor and action sizes come from its spaces [the config's env.id].",
     ),
     controller: str | None = typer.Option(None, help="Controller kind [plain]."),
     blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
@@ -127,6 +187,13 @@ def evolve(
         cfg = load_config(GrnConfig, None, _merge(base, ov))
     else:
         cfg = load_config(GrnConfig, config, ov)
+    if env_id is not None:
+        from evodevo.config import to_dict
+
+        env_ov = _env_overrides(env_id, cfg)
+        merged = _merge(to_dict(cfg), env_ov)
+        merged["env"] = env_ov["env"]  # the new env's kwargs replace the old env's
+        cfg = load_config(GrnConfig, None, merged)
     if cfg.controller == "open_loop" and cfg.sensors.blind:
         raise EvodevoError(
             "--blind and the open-loop controller contradict each other: an open-loop policy "
@@ -134,7 +201,8 @@ def evolve(
         )
     from evodevo.progress import CommandProgress, GenerationBar
 
-    with CommandProgress("evaluate population", quiet) as bars:
+    fresh = not out.exists()
+    with CommandProgress("evaluate population", quiet) as bars, _remove_if_failed(out, fresh):
         summary = evolve_run(
             cfg,
             out,
