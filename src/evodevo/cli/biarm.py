@@ -124,6 +124,9 @@ def train(
         "checkpoint_every episodes); variant, seed and config default to the saved ones.",
     ),
     quiet: bool = typer.Option(False, help="No progress bar."),
+    tensorboard: Path | None = typer.Option(
+        None, help="Also write the per-episode metrics as TensorBoard scalars into this folder."
+    ),
     out: Path = typer.Option(..., help="Run directory."),
 ) -> None:
     """Train one variant through the task sequence into OUT.
@@ -159,7 +162,7 @@ def train(
     resolve_tasks(cfg)
     set_single_thread()
     with GracefulStop() as stop:
-        summary = _train_with_progress(cfg, var, seed, out, resume, quiet, stop)
+        summary = _train_with_progress(cfg, var, seed, out, resume, quiet, stop, tensorboard)
     for t in summary["tasks"]:
         typer.echo(
             f"{t['env_id']:16s} initial {t['initial_return']:9.2f}  final {t['final_return']:9.2f}"
@@ -169,14 +172,36 @@ def train(
 
 
 def _train_with_progress(
-    cfg: Any, var: Any, seed: int, out: Path, resume: bool, quiet: bool, stop: Any
+    cfg: Any,
+    var: Any,
+    seed: int,
+    out: Path,
+    resume: bool,
+    quiet: bool,
+    stop: Any,
+    tensorboard: Path | None = None,
 ) -> dict[str, Any]:
-    """``trainer.train`` with one progress bar per task unless ``quiet``."""
+    """``trainer.train`` with one progress bar per task unless ``quiet`` (and TensorBoard
+    scalars into ``tensorboard`` if given)."""
+    if tensorboard is None:
+        return _train_with_bars(cfg, var, seed, out, resume, quiet, stop, None)
+    from evodevo.tensorboard import EpisodeScalars
+
+    tb = EpisodeScalars(tensorboard)
+    try:
+        return _train_with_bars(cfg, var, seed, out, resume, quiet, stop, tb)
+    finally:
+        tb.close()
+
+
+def _train_with_bars(
+    cfg: Any, var: Any, seed: int, out: Path, resume: bool, quiet: bool, stop: Any, tb: Any
+) -> dict[str, Any]:
     from evodevo.neuromod.trainer import EpisodeInfo
     from evodevo.neuromod.trainer import train as run_train
 
     if quiet:
-        return run_train(cfg, var, seed, out, resume=resume, stop=stop)
+        return run_train(cfg, var, seed, out, resume=resume, hook=tb, stop=stop)
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -208,6 +233,8 @@ def _train_with_progress(
                 completed=e.episode + 1,
                 info=f"return {e.ret:8.1f}  eps {e.epsilon:.3f}  lr {e.lr:.2e}",
             )
+            if tb is not None:
+                tb(e)
 
         return run_train(cfg, var, seed, out, resume=resume, hook=hook, on_task=on_task, stop=stop)
 

@@ -158,6 +158,9 @@ def evolve(
     quiet: bool = typer.Option(False, "--quiet", help="No progress line per generation."),
     backend: str = typer.Option("local", help=BACKEND_HELP),
     address: str | None = typer.Option(None, help=ADDRESS_HELP),
+    tensorboard: Path | None = typer.Option(
+        None, help="Also write history.csv's numbers as TensorBoard scalars into this folder."
+    ),
 ) -> None:
     """Evolve a GRN (Algorithm 3) into OUT: best_genome.npz, encoder.pt, history.csv, summary.json."""
     from evodevo.config import load_config
@@ -202,13 +205,19 @@ def evolve(
     from evodevo.progress import CommandProgress, GenerationBar
 
     fresh = not out.exists()
+    hooks: list[Any] = []
+    if tensorboard is not None:
+        from evodevo.tensorboard import GenerationScalars
+
+        hooks.append(GenerationScalars(tensorboard))
     with CommandProgress("evaluate population", quiet) as bars, _remove_if_failed(out, fresh):
+        hooks.insert(0, GenerationBar(bars, cfg.evolution.generations))
         summary = evolve_run(
             cfg,
             out,
             workers=workers,
             resume=resume,
-            hooks=[GenerationBar(bars, cfg.evolution.generations)],  # type: ignore[list-item]
+            hooks=hooks,
             progress=False,  # the bars print the per-generation line
             backend=backend,
             address=address,
