@@ -172,7 +172,7 @@ def evaluate_run(
         if baselines_from is not None:
             base = _read_baselines(baselines_from, cfg, n, objects, test_seed)
         elif baselines:
-            base, base_rows = _run_trivial(ev, clean_eps, list(BASELINES))
+            base, base_rows = _run_trivial(ev, clean_eps, default_baselines(cfg))
             rows += base_rows
         env_steps = ev.env_steps
     summary = rate_dict(main.success[0])
@@ -195,6 +195,19 @@ def evaluate_run(
     write_json(loaded.run / f"{name}.json", result)
     loaded.run.write_csv(f"{name}_episodes.csv", rows)
     return result
+
+
+KUKA_ID = "evodevo/KukaDiverseObject-v0"
+
+
+def default_baselines(config: GrnConfig) -> list[str]:
+    """The reference policies run by default: every one of BASELINES, but the scripted
+    image-only pipeline only on the Kuka env with its height hack (it reads that camera)."""
+    kuka = config.env.id == KUKA_ID and config.env.kwargs.get("height_hack", True)
+    return [n for n in BASELINES if n != "scripted" or kuka]
+
+
+__all__ += ["default_baselines"]
 
 
 def _run_trivial(
@@ -239,7 +252,7 @@ def evaluate_baselines(
     """
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
-    names = list(BASELINES) if policies is None else list(policies)
+    names = default_baselines(config) if policies is None else list(policies)
     bad = [p for p in names if p not in BASELINES] or ([] if names else [""])
     if bad:
         raise EvodevoError(
