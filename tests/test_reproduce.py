@@ -45,7 +45,7 @@ def test_plan_covers_every_part(tmp_path):
     } <= set(names)
     assert "grn-ablate-plain-s0" in names and "grn-evaluate-plain-s1-test_noisy" in names
     ev = next(s for s in steps if s.name == "grn-evaluate-plain-s0-test_noisy")
-    assert ev.argv[ev.argv.index("--episodes") + 1] == "200" and "--json" in ev.argv
+    assert ev.argv[ev.argv.index("--test-episodes") + 1] == "200" and "--json" in ev.argv
     # the nine ablations need a plain GRN genome; the neuromodulated GRN ablates its modulators
     plain_ab = next(s for s in steps if s.name == "grn-ablate-plain-s0")
     mod_ab = next(s for s in steps if s.name == "grn-ablate-neuromodulated-s0")
