@@ -155,7 +155,12 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
     assert "weight_mutate_rate      = 0.8" in (out / "neat.ini").read_text()
     res = invoke("evaluate", out, "--test-episodes", 1, "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
-    assert result["controller"] == "neat" and set(result["baselines"]) == {"zero", "random", "turn"}
+    assert result["controller"] == "neat" and set(result["baselines"]) == {
+        "zero",
+        "random",
+        "turn",
+        "scripted",
+    }
 
 
 # ``random`` takes the same code path as ``zero`` (about 20 s each): it runs with -m slow.

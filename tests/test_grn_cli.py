@@ -50,7 +50,12 @@ def test_evolve_and_evaluate_on_the_real_kuka_env(tmp_path):
     assert 2 <= summary["env_steps"] <= 16
     res = invoke("evaluate", out, "--test-episodes", 1, "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
-    assert result["episodes"] == 1 and set(result["baselines"]) == {"zero", "random", "turn"}
+    assert result["episodes"] == 1 and set(result["baselines"]) == {
+        "zero",
+        "random",
+        "turn",
+        "scripted",
+    }
     assert 0.0 <= result["ci_low"] <= result["success_rate"] <= result["ci_high"] <= 1.0
     assert (out / "eval_test_0.json").is_file() and (out / "eval_test_0_episodes.csv").is_file()
 

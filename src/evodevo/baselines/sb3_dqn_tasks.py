@@ -20,10 +20,19 @@ Settings (SPEC §1.6, the ``dqn`` section of the run config; the same for every 
   ``learning_starts`` warm-up only); truncated episodes bootstrap (SB3's
   ``handle_timeout_termination``);
 * exploration exactly as SPEC §1.6: epsilon starts at ``dqn.eps_start`` and is multiplied by
-  ``dqn.eps_decay`` after each episode, floor ``dqn.eps_min``. SB3's own schedule is linear in
+  ``dqn.eps_decay`` after each environment step (``dqn.eps_unit: step``) or each episode
+  (``episode``, the v1 protocol), floor ``dqn.eps_min``. SB3's own schedule is linear in
   the fraction of ``total_timesteps``; we replace ``model.exploration_schedule`` by
-  :class:`EpisodeEpsilon`, which an episode callback decays. (Before ``learning_starts`` SB3
+  :class:`EpisodeEpsilon`, which the callback decays. (Before ``learning_starts`` SB3
   acts uniformly at random, as our trainer does with epsilon 1.)
+* the closest SB3 settings to the rest of the protocol: ``dqn.target_mode: soft`` is SB3's
+  ``tau`` with ``target_update_interval=1`` (a Polyak update every environment step, ours every
+  gradient step: the same after ``learning_starts``); ``hard`` is ``tau=1`` every
+  ``dqn.target_update`` steps. SB3's DQN has no double Q-learning: with ``dqn.double_q`` the
+  baseline still uses the plain max target (its summary says ``sb3_double_q: false``).
+  ``dqn.keep: best`` validates the model every ``eval.validation_every`` episodes and after the
+  last on the validation seeds, as SB3's ``EvalCallback`` does, and the task keeps the best
+  policy parameters (:class:`~evodevo.neuromod.keep_best.BestColumn`'s rule).
 * budget: the task's episode count (after ``episodes_scale``); :class:`TaskCallback` stops
   ``learn`` when it is reached (``total_timesteps`` is only an upper bound).
 
@@ -52,7 +61,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import stable_baselines3
@@ -160,11 +169,47 @@ class TaskCallback(BaseCallback):
         self.stopped = False
         self._ep_start_step = 0
         self._t0 = time.perf_counter()
+        self._per_step = cfg.dqn.eps_unit == "step"
+        self._ep_eps = epsilon.eps  # epsilon of the episode's first action (metrics.csv)
+        # dqn.keep: best -- validation seeds, best mean return and parameters so far
+        self.keep_best = cfg.dqn.keep == "best"
+        self._vseeds = eval_seeds(cfg.eval.validation_seed, cfg.eval.validation_episodes)
+        self.best_return = -math.inf
+        self.best_episode = -1
+        self.best_state: dict[str, torch.Tensor] | None = None
+        self.checks = 0
+
+    def _validate(self) -> None:
+        """``dqn.keep: best``: greedy episodes on the validation seeds; keep the best policy."""
+        model = cast(DQN, self.model)
+        mean = float(np.mean(evaluate_model(model, self.spec, self._vseeds)))
+        if mean > self.best_return:
+            self.best_return, self.best_episode = mean, self.episodes
+            self.best_state = {
+                k: v.detach().clone() for k, v in self.model.policy.state_dict().items()
+            }
+        self.checks += 1
+
+    def keep(self, model: DQN) -> dict[str, Any] | None:
+        """End of the task: load the best validated parameters into ``model`` (keep: best)."""
+        if not self.keep_best:
+            return None
+        if self.best_state is not None:
+            model.policy.load_state_dict(self.best_state)
+        return {
+            "kept": "best",
+            "best_episode": self.best_episode,
+            "best_validation_return": self.best_return,
+            "validation_checks": self.checks,
+            "validation_seeds": [self._vseeds[0], self._vseeds[-1]],
+        }
 
     def _on_step(self) -> bool:
         cfg = self.cfg
         self.step += 1
         self.task_steps += 1
+        if self._per_step:
+            self.epsilon.decay()
         if self.neuromod is not None and self.step % cfg.modules.sample_interval == 0:
             row: dict[str, Any] = {f"s_{m}": "" for m in MODULE_NAMES}
             n_task = cfg.modules.novelty_decay**self.task_steps
@@ -183,7 +228,7 @@ class TaskCallback(BaseCallback):
 
     def _end_episode(self, ret: float, length: int) -> None:
         now = time.perf_counter()
-        eps = self.epsilon.eps
+        eps = self._ep_eps
         if self._ep_start_step >= self.cfg.dqn.learning_starts:  # every step trained
             self.per_step.append((now - self._t0) / max(length, 1))
         self._t0, self._ep_start_step = now, self.task_steps
@@ -214,8 +259,13 @@ class TaskCallback(BaseCallback):
                     lr,
                 )  # fmt: skip
             )
-        self.epsilon.decay()
+        if not self._per_step:
+            self.epsilon.decay()
+        self._ep_eps = self.epsilon.eps
         self.episodes += 1
+        every = self.cfg.eval.validation_every
+        if self.keep_best and (self.episodes % every == 0 or self.episodes == self.spec.episodes):
+            self._validate()
 
 
 def build_dqn(cfg: BiarmConfig, env: Any, seed: int) -> DQN:
@@ -234,7 +284,8 @@ def build_dqn(cfg: BiarmConfig, env: Any, seed: int) -> DQN:
         gamma=d.gamma,
         train_freq=1,
         gradient_steps=1,
-        target_update_interval=d.target_update,
+        target_update_interval=1 if d.target_mode == "soft" else d.target_update,
+        tau=d.tau if d.target_mode == "soft" else 1.0,
         exploration_initial_eps=d.eps_start,
         exploration_final_eps=d.eps_min,
         max_grad_norm=d.grad_clip,
@@ -366,11 +417,16 @@ def train_sb3_tasks(
                     "re-runs from its start",
                     hint,
                 )
+            last = evaluate_model(model, spec, seeds) if cb.keep_best else None
+            kept = cb.keep(model)
+            if kept is not None:
+                kept["last_network_returns"] = last
             model.save(_model_path(run, i))
             step = cb.step
             initial = evaluate_model(model, spec, seeds)
             results.append(
                 {
+                    **({"validation": kept} if kept is not None else {}),
                     "env_id": spec.env_id,
                     "episodes": spec.episodes,
                     "max_steps": spec.max_steps,
@@ -414,6 +470,7 @@ def train_sb3_tasks(
         "final_states": None,
         "wall_seconds": time.perf_counter() - t_start,
         "sb3_version": stable_baselines3.__version__,
+        **({"sb3_double_q": False} if cfg.dqn.double_q else {}),
     }
     run.write_summary(summary)
     return summary
