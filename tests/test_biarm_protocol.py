@@ -244,3 +244,40 @@ def test_v1_preset_reproduces_the_first_protocol_bit_for_bit(tmp_path, variant):
     if reference.get("lateral_kernel") != summary.get("lateral_kernel"):
         pytest.skip("the reference was written with the other lateral kernel")
     assert summary == reference
+
+
+# ---------------------------------------------------------------------------- the sweep
+def test_tiny_sweep_trains_each_task_alone_and_tables_best_and_last(tmp_path):
+    """Two protocols x one task x one seed through ``run_sweep``; the table has a row per
+    protocol, and the keep-best protocol also a ``(last network)`` row read from the same runs;
+    a second call trains nothing (finished runs are skipped)."""
+    from evodevo.neuromod.protocol_sweep import SweepSpec, run_sweep, sweep_table
+
+    tiny = {"dqn": {"batch_size": 8, "learning_starts": 8}, "eval": {"episodes": 1}}
+    spec = SweepSpec.from_dict(
+        {
+            "protocols": {
+                "v1": {**tiny, "dqn": {**tiny["dqn"], "eps_unit": "episode", "keep": "last"}},
+                "best": {
+                    **tiny,
+                    "eval": {"episodes": 1, "validation_episodes": 1, "validation_every": 1},
+                },
+            },
+            "tasks": ["CartPole-v1"],
+            "variants": ["pnn"],
+            "seeds": "0",
+            "episodes_scale": 2 / 400,  # 2 episodes
+        }
+    )
+    out = tmp_path / "sweep"
+    assert len(run_sweep(spec, out)) == 2
+    assert run_sweep(spec, out) == []
+    best = json.loads((out / "best" / "CartPole-v1" / "pnn__s0" / "summary.json").read_text())
+    v = best["tasks"][0]["validation"]
+    assert v["kept"] == "best" and v["validation_checks"] == 2
+    text = sweep_table(spec, out)
+    rows = [r for r in text.splitlines() if r.startswith("| ")]
+    assert [r.split(" | ")[0] for r in rows[1:]] == ["| v1", "| best", "| best (last network)"]
+    last = float(np.mean(v["last_network_returns"]))
+    assert f"{last:.1f} ± 0.0" in rows[3]
+    assert (out / "sweep.md").read_text() == text

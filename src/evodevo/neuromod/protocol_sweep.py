@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from evodevo.config import from_dict, to_dict
@@ -79,9 +80,7 @@ class SweepSpec:
         known = {"protocols", "tasks", "variants", "seeds", "episodes_scale"}
         unknown = set(data) - known
         if unknown:
-            raise ConfigError(
-                f"unknown sweep key(s) {sorted(unknown)}; expected {sorted(known)}"
-            )
+            raise ConfigError(f"unknown sweep key(s) {sorted(unknown)}; expected {sorted(known)}")
         protocols = dict(data.get("protocols") or {})
         if not protocols:
             raise ConfigError("the sweep names no protocols; give protocols: {name: overrides}")
@@ -189,7 +188,9 @@ def run_sweep(spec: SweepSpec, out: str | Path, workers: int = 1) -> list[str]:
         return list(pool.map(_run_one, items))
 
 
-def collect_sweep(spec: SweepSpec, out: str | Path) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
+def collect_sweep(
+    spec: SweepSpec, out: str | Path
+) -> dict[tuple[str, str, str], list[dict[str, Any]]]:
     """``{(protocol, task, variant): [summary per finished seed]}``."""
     found: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for protocol, task, variant, _, folder in spec.items(Path(out)):
@@ -201,8 +202,21 @@ def collect_sweep(spec: SweepSpec, out: str | Path) -> dict[tuple[str, str, str]
     return found
 
 
+def _last_network(summary: dict[str, Any]) -> float:
+    """Mean greedy return of the task's *last* network (recorded beside the kept best one when
+    ``dqn.keep: best``); NaN when the run kept the last network anyway."""
+    v = summary["tasks"][0].get("validation")
+    if not v or not v.get("last_network_returns"):
+        return math.nan
+    return float(np.mean(v["last_network_returns"]))
+
+
 def _cell(summaries: Sequence[dict[str, Any]], key: str) -> str:
-    vals = [float(s["tasks"][0][key]) for s in summaries]
+    if key == "last_network":
+        vals = [_last_network(s) for s in summaries]
+    else:
+        vals = [float(s["tasks"][0][key]) for s in summaries]
+    vals = [v for v in vals if not math.isnan(v)]
     m = summarise(vals)
     if m.n == 0 or math.isnan(m.mean):
         return "–"
@@ -218,23 +232,29 @@ def sweep_table(spec: SweepSpec, out: str | Path) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for protocol in spec.protocols:
         for variant in spec.variants:
-            cells = []
+            cells, last = [], []
             walls: list[float] = []
             for task in spec.tasks:
                 runs = found.get((protocol, task, variant), [])
                 cells.append(_cell(runs, "final_return") if runs else "–")
+                last.append(_cell(runs, "last_network") if runs else "–")
                 walls += [float(s.get("wall_seconds", math.nan)) / 60 for s in runs]
+            if not any(c != "–" for c in cells):
+                continue  # nothing of this protocol x variant has finished
             wall = sorted(walls)[len(walls) // 2] if walls else math.nan
-            lines.append(
-                "| " + " | ".join([protocol, variant, *cells, f"{wall:.1f}"]) + " |"
-            )
-    overrides = "\n".join(
-        f"- `{name}`: {over}" for name, over in spec.protocols.items()
-    )
+            lines.append("| " + " | ".join([protocol, variant, *cells, f"{wall:.1f}"]) + " |")
+            if any(c != "–" for c in last):  # keep: best -- the same runs' last networks
+                lines.append(
+                    "| " + " | ".join([f"{protocol} (last network)", variant, *last, ""]) + " |"
+                )
+    overrides = "\n".join(f"- `{name}`: {over}" for name, over in spec.protocols.items())
     text = (
         "Final greedy return of each task trained alone (its thesis episodes), mean ± std "
         "[bootstrap 95 % CI] over seeds "
-        f"{spec.seeds[0]}-{spec.seeds[-1]}, on the SPEC §1.7 evaluation seeds.\n\n"
+        f"{spec.seeds[0]}-{spec.seeds[-1]}, on the SPEC §1.7 evaluation seeds. Under "
+        "`keep: best` the task keeps the column that scored best on the validation seeds; "
+        "the `(last network)` row is the same runs' final network on the same evaluation "
+        "seeds.\n\n"
         + "\n".join(lines)
         + "\n\nProtocols (overrides of the config defaults):\n\n"
         + overrides
