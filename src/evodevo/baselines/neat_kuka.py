@@ -52,6 +52,7 @@ HISTORY_FIELDS = [
     "episodes",
     "env_steps",
     "elapsed_s",
+    "episodes_saved",
 ]
 
 NEAT_TEMPLATE = """\
@@ -146,6 +147,8 @@ class NeatState:
     generation: int = 0
     env_steps: int = 0
     episodes: int = 0
+    episodes_saved: int = 0
+    """Episodes copied from an identical network instead of run (``evaluation.dedupe``)."""
     train_s: float = 0.0
     history: list[dict[str, Any]] = field(default_factory=list)
     best: Any = None
@@ -198,6 +201,7 @@ class RunReporter:
                 "generation": nxt,
                 "env_steps": self.state.env_steps,
                 "episodes": self.state.episodes,
+                "episodes_saved": self.state.episodes_saved,
                 "train_s": self.state.train_s,
                 "history": self.state.history,
             },
@@ -252,6 +256,7 @@ def neat_summary(cfg: KukaBaselineConfig, state: NeatState) -> dict[str, Any]:
     out["done"] = reason is not None
     out["generations_run"] = state.generation
     out["episodes_run"] = state.episodes
+    out["episodes_saved"] = state.episodes_saved
     out["budget"]["generations"] = cfg.neat.generations
     out["budget"]["population"] = cfg.neat.population
     out["budget"]["episodes_per_evaluation"] = cfg.neat.episodes
@@ -287,6 +292,7 @@ def _restore(run: RunDir) -> tuple[Any, NeatState]:
         generation=gen,
         env_steps=int(saved["env_steps"]),
         episodes=int(saved["episodes"]),
+        episodes_saved=int(saved.get("episodes_saved", 0)),
         train_s=float(saved["train_s"]),
         history=list(saved["history"]),
     )
@@ -348,6 +354,7 @@ def train_neat(
             state.best = nets[best]
             state.env_steps += res.env_steps
             state.episodes += int(res.reward.size)
+            state.episodes_saved += res.episodes_saved
             state.train_s += time.perf_counter() - t0
             state.history.append(
                 {
@@ -362,6 +369,7 @@ def train_neat(
                     "episodes": state.episodes,
                     "env_steps": state.env_steps,
                     "elapsed_s": state.train_s,
+                    "episodes_saved": state.episodes_saved,
                 }
             )
             state.generation += 1

@@ -118,6 +118,20 @@ class NeatNet:
         """No arrays (the evaluator groups genomes by array shapes)."""
         return {}
 
+    def behaviour_key(self) -> tuple[Any, ...]:
+        """The network's genes in the genome's order, without its id and fitness.
+
+        Two genomes with equal keys build the same feed-forward network (same nodes, same
+        connections in the same order, hence the same sums), so the evaluator runs one of them
+        (:func:`evodevo.grn.evaluator.genome_key`).
+        """
+        g = pickle.loads(self.genome)
+
+        def genes(d: dict[Any, Any]) -> tuple[Any, ...]:
+            return tuple((k, tuple(sorted(vars(gene).items()))) for k, gene in d.items())
+
+        return (self.config_path, genes(g.nodes), genes(g.connections))
+
     @classmethod
     def from_genome(cls, genome: Any, config_path: str | Path) -> NeatNet:
         """Wrap a live neat genome."""

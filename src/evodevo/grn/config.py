@@ -203,6 +203,12 @@ class EvaluationConfig:
     test_episodes: int = doc(40, "episodes of the test (fixed seeds)")
     test_seed: int = doc(10_000, "seed of the fixed test episodes (independent of the run seed)")
     lockstep: int = doc(4, "episodes one worker steps together (one encoder batch per env step)")
+    dedupe: bool = doc(
+        True,
+        "evaluate each distinct genome of a batch once and copy its results to its identical "
+        "twins (same episodes and noise seeds, so the same outcomes; saves the episodes of "
+        "unmutated clones)",
+    )
     distance_weight: float = doc(
         0.0,
         "shaped training fitness: subtract weight x mean over episodes of the gripper-to-nearest-"

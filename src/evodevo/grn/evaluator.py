@@ -9,7 +9,11 @@ env step for all of them.
 
 Results never depend on the number of workers or on the lockstep grouping: every episode is
 fully described by its env seed, its noisy flag and its noise seed (the controller's noise
-generator for that (genome, episode) pair), all derived from the run seed by the caller.
+generator for that (genome, episode) pair, seeded from the episode alone and made afresh for
+every pair), all derived from the run seed by the caller. An episode's outcome is therefore a
+pure function of (genome, episode), and identical genomes of one :meth:`Evaluator.evaluate` call
+(an elite and its unmutated child) are run once, their results copied to the twins
+(``evaluation.dedupe``, :func:`genome_key`); ``EpisodeResults.episodes_saved`` counts the copies.
 
 Any Gymnasium env with a flat Box action space can be driven. With an image observation the
 encoder turns it into features and ``info["proprio"]`` supplies the proprioceptive values
@@ -25,11 +29,12 @@ True
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import itertools
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -47,6 +52,7 @@ __all__ = [
     "EpisodeResults",
     "Evaluator",
     "make_env",
+    "genome_key",
     "action_dims",
     "is_vector_observation",
     "scale_observation",
@@ -82,6 +88,8 @@ class EpisodeResults:
     wall_s: float = 0.0
     distance: np.ndarray | None = None
     """Gripper-to-nearest-object distance (m) at the end, when measured (training shaping)."""
+    episodes_saved: int = 0
+    """Episodes not run because their genome's identical twin ran them (``evaluation.dedupe``)."""
 
     @property
     def success_rate(self) -> np.ndarray:
@@ -411,6 +419,51 @@ def _check_frontend(config: Any, encoder: Any, space: gym.Space[Any]) -> None:
         check(np.zeros((1, *space.shape), dtype=space.dtype))
 
 
+def genome_key(genome: Any) -> Hashable | None:
+    """What decides a genome's behaviour, for finding identical twins; None: never deduplicated.
+
+    A genome may define ``behaviour_key()`` (e.g. a NEAT network, whose pickled bytes also hold
+    its id); otherwise the key is its type and the bytes, dtypes and shapes of its ``arrays()``;
+    a genome without arrays counts by equality if it is hashable (e.g. an SB3 model reference),
+    and None (a baseline's placeholder) is one genome.
+
+    >>> import numpy as np
+    >>> from evodevo.grn.open_loop import OpenLoopGenome
+    >>> a, b = OpenLoopGenome(np.zeros((2, 3))), OpenLoopGenome(np.zeros((2, 3)))
+    >>> genome_key(a) == genome_key(b), genome_key(a) == genome_key(OpenLoopGenome(np.ones((2, 3))))
+    (True, False)
+    """
+    if genome is None:
+        return ("None",)
+    kind = f"{type(genome).__module__}.{type(genome).__qualname__}"
+    own = getattr(genome, "behaviour_key", None)
+    if callable(own):
+        return (kind, own())
+    arrays = genome.arrays() if hasattr(genome, "arrays") else {}
+    if arrays:
+        h = hashlib.blake2b(digest_size=20)
+        for name in sorted(arrays):
+            a = np.ascontiguousarray(arrays[name])
+            h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+            h.update(a.tobytes())
+        return (kind, h.hexdigest())
+    try:
+        hash(genome)
+    except TypeError:
+        return None
+    return (kind, genome)
+
+
+def _twins(genomes: Sequence[Any]) -> list[int]:
+    """For each genome, the index of its first identical genome (itself if none before it)."""
+    first: dict[Hashable, int] = {}
+    rep = []
+    for i, g in enumerate(genomes):
+        key = genome_key(g)
+        rep.append(i if key is None else first.setdefault(key, i))
+    return rep
+
+
 def _shape_key(genome: Any) -> tuple[Any, ...]:
     if genome is None:
         return ()
@@ -463,7 +516,10 @@ class Evaluator:
             address=address,
         )
         self.episodes_run = 0
+        """Episodes run (not counting the twins' copies)."""
         self.env_steps = 0
+        self.episodes_saved = 0
+        """Episodes copied from an identical genome instead of run (``evaluation.dedupe``)."""
         self._policy_counter = itertools.count()
 
     def __enter__(self) -> Evaluator:
@@ -499,9 +555,40 @@ class Evaluator:
                 (``EpisodeResults.distance``; the shaped training fitness).
 
         Returns:
-            (len(genomes), len(episodes)) arrays.
+            (len(genomes), len(episodes)) arrays. With ``evaluation.dedupe`` (the default) each
+            distinct genome (:func:`genome_key`) is run once and its rows copied to its twins.
         """
         cfg = config if config is not None else self.config
+        rep = list(range(len(genomes)))
+        if getattr(cfg.evaluation, "dedupe", True) and len(genomes) > 1:
+            rep = _twins(genomes)
+        distinct = sorted(set(rep))
+        if len(distinct) < len(genomes):
+            res = self._evaluate(
+                [genomes[i] for i in distinct], episodes, cfg, baseline, measure_distance
+            )
+            rows = np.searchsorted(distinct, rep)
+            out = EpisodeResults(
+                res.reward[rows],
+                res.success[rows],
+                res.steps[rows],
+                wall_s=res.wall_s,
+                distance=None if res.distance is None else res.distance[rows],
+                episodes_saved=(len(genomes) - len(distinct)) * len(episodes),
+            )
+            self.episodes_saved += out.episodes_saved
+            return out
+        return self._evaluate(genomes, episodes, cfg, baseline, measure_distance)
+
+    def _evaluate(
+        self,
+        genomes: Sequence[Any],
+        episodes: Sequence[Episode],
+        cfg: Any,
+        baseline: str | None,
+        measure_distance: bool,
+    ) -> EpisodeResults:
+        """Run every (genome, episode) pair, ``lockstep`` pairs per task."""
         policy_key = f"{baseline}|{cfg!r}"
         lockstep = cfg.evaluation.lockstep
         items = [(g, e) for g in range(len(genomes)) for e in range(len(episodes))]

@@ -87,6 +87,8 @@ class GenerationRecord:
     eval_s: float
     evals_per_s: float
     elapsed_s: float
+    episodes_saved: int = 0
+    """Episodes of ``episodes`` copied from an identical genome, not run (evaluation.dedupe)."""
 
 
 class Hook:
@@ -144,6 +146,7 @@ class Evolution:
         self.elapsed_s = 0.0
         self.episodes_run = 0
         self.env_steps = 0
+        self.episodes_saved = 0
 
     @property
     def done(self) -> bool:
@@ -168,7 +171,7 @@ class Evolution:
         succ = res.success_rate
         order = rank(fit)
         best = int(order[0])
-        n_eps, steps = res.reward.size, res.env_steps
+        n_eps, steps, saved = res.reward.size, res.env_steps, res.episodes_saved
         retest = float("nan")
         self.best_genome = self.population[best]
         if cfg.evolution.early_stop and succ[best] >= evo_cfg.early_stop_success:
@@ -198,6 +201,7 @@ class Evolution:
         self.elapsed_s += eval_s
         self.episodes_run += n_eps
         self.env_steps += steps
+        self.episodes_saved += saved
         record = GenerationRecord(
             generation=self.generation,
             best_fitness=float(fit[best]),
@@ -212,6 +216,7 @@ class Evolution:
             eval_s=eval_s,
             evals_per_s=n_eps / eval_s if eval_s > 0 else float("nan"),
             elapsed_s=self.elapsed_s,
+            episodes_saved=saved,
         )
         self.history.append(record)
         self.generation += 1
@@ -246,6 +251,7 @@ class Evolution:
             "elapsed_s": self.elapsed_s,
             "episodes_run": self.episodes_run,
             "env_steps": self.env_steps,
+            "episodes_saved": self.episodes_saved,
             "rng_state": self.rng.bit_generator.state,
             "history": [asdict(r) for r in self.history],
         }
@@ -271,6 +277,7 @@ class Evolution:
         self.elapsed_s = float(meta["elapsed_s"])
         self.episodes_run = int(meta["episodes_run"])
         self.env_steps = int(meta["env_steps"])
+        self.episodes_saved = int(meta.get("episodes_saved", 0))
         self.rng.bit_generator.state = meta["rng_state"]
         self.history = [GenerationRecord(**r) for r in meta["history"]]
 
@@ -329,6 +336,7 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
         "wall_s": evo.elapsed_s,
         "episodes_run": evo.episodes_run,
         "env_steps": evo.env_steps,
+        "episodes_saved": evo.episodes_saved,
         "best_fitness": h[-1].best_fitness if h else None,
         "best_training_success": h[-1].best_success if h else None,
         "budget": {
