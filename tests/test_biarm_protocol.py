@@ -281,3 +281,53 @@ def test_tiny_sweep_trains_each_task_alone_and_tables_best_and_last(tmp_path):
     last = float(np.mean(v["last_network_returns"]))
     assert f"{last:.1f} ± 0.0" in rows[3]
     assert (out / "sweep.md").read_text() == text
+
+
+# ---------------------------------------------------------------------------- lateral init
+@pytest.mark.parametrize("gated", [False, True])
+def test_zero_lateral_init_starts_a_column_as_an_isolated_one(gated):
+    """``network.lateral_init: zero``: a new column's U maps are zero, so its Q-values are those
+    of the same column without laterals; every other parameter equals the Xavier draw."""
+    from evodevo.neuromod.columns import ProgressiveNet
+
+    nets = {}
+    for init in ("xavier", "zero"):
+        net = ProgressiveNet(4, 16, gated, 4, seed=3, lateral_kernel="torch", lateral_init=init)
+        net.add_column(2)
+        net.add_column(3)
+        nets[init] = net
+    zx, zz = nets["xavier"].current, nets["zero"].current
+    for name, p in zx.named_parameters():
+        if name in ("u2", "uq"):
+            assert not torch.equal(p, getattr(zz, name)) and not getattr(zz, name).any()
+        else:
+            assert torch.equal(p, getattr(zz, name)), name
+    x = torch.randn(5, 4, generator=torch.Generator().manual_seed(0))
+    states = torch.full((4,), 0.5)
+    q = nets["zero"].q(x, 1, states)
+    h1 = torch.relu(x @ zz.w1 + zz.b1)
+    h2 = torch.relu(h1 @ zz.w2 + zz.b2)
+    torch.testing.assert_close(q, h2 @ zz.wq + zz.bq)
+
+
+def test_lateral_init_must_be_known():
+    with pytest.raises(ConfigError, match="network.lateral_init='ones'"):
+        from_dict(BiarmConfig, {"network": {"lateral_init": "ones"}})
+
+
+def test_runs_written_before_lateral_init_resume_as_xavier(tmp_path):
+    """A config.json without ``network.lateral_init`` (older runs) resumes under ``xavier`` and
+    is refused under ``zero``."""
+    from evodevo.errors import CheckpointError
+    from evodevo.neuromod.trainer import _check_resume
+    from evodevo.runs import RunDir
+
+    run = RunDir(tmp_path / "old")
+    cfg = BiarmConfig()
+    old = {"variant": "pnn", "seed": 0, **to_dict(cfg)}
+    del old["network"]["lateral_init"]
+    run.write_config(old, kind="biarm")
+    _check_resume(run, get_variant("pnn"), 0, cfg)
+    cfg.network.lateral_init = "zero"
+    with pytest.raises(CheckpointError, match="network"):
+        _check_resume(run, get_variant("pnn"), 0, cfg)

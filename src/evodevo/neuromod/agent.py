@@ -77,6 +77,7 @@ class BiarmAgent:
                 context_weights=ctx_w,
                 learn_context=cfg.modules.learn_context_weights,
                 lateral_kernel=cfg.network.lateral_kernel,
+                lateral_init=cfg.network.lateral_init,
             )
         else:
             raise ValueError(

@@ -139,6 +139,7 @@ class Column(nn.Module):
         learn_context: bool,
         gen: torch.Generator,
         kernel: str = "torch",
+        lateral_init: str = "xavier",
     ) -> None:
         super().__init__()
         self.n_prev = k = n_prev
@@ -170,6 +171,13 @@ class Column(nn.Module):
             else:
                 self.u2 = _xavier((k * h, h), (k * h, h), gen)
                 self.uq = _xavier((k * h, a), (k * h, a), gen)
+            if lateral_init == "zero":
+                # drawn and then zeroed, so every other parameter is the same as under xavier:
+                # the new column starts as an isolated one (its Q-values near 0, not the earlier
+                # columns' features through random maps) and U learns from h_k != 0
+                with torch.no_grad():
+                    self.u2.zero_()
+                    self.uq.zero_()
 
     # ---------------------------------------------------------------- laterals
     def context(self, states: torch.Tensor) -> torch.Tensor:
@@ -260,8 +268,10 @@ class ProgressiveNet(nn.Module):
         context_weights: Sequence[float] = (0.3, 0.3, 0.2, 0.2),
         learn_context: bool = True,
         lateral_kernel: str = "auto",
+        lateral_init: str = "xavier",
     ) -> None:
         super().__init__()
+        self.lateral_init = lateral_init
         self.lateral_kernel = lateral_kernel
         self.kernel = resolve_kernel(lateral_kernel)
         self.obs_dim = obs_dim
@@ -314,6 +324,7 @@ class ProgressiveNet(nn.Module):
             learn_context=self.learn_context,
             gen=torch_gen(self.seed, 3, self.n_columns),
             kernel=self.kernel,
+            lateral_init=self.lateral_init,
         )
         self.columns.append(col)
         return col

@@ -144,6 +144,11 @@ class NetworkConfig:
         "cpp (C++ kernels, built once: BIARM's gated laterals and module update, the frozen "
         "columns of PNN and BIARM), torch (PyTorch/NumPy ops), auto (cpp when it builds)",
     )
+    lateral_init: str = doc(
+        "xavier",
+        "initial lateral maps U of a new column (SPEC §1.2, §1.6): xavier (v1), or zero (the "
+        "new column starts as an isolated column and learns to read the earlier ones)",
+    )
 
     def validate(self) -> None:
         if self.hidden < 1:
@@ -155,6 +160,10 @@ class NetworkConfig:
         if self.lateral_kernel not in ("auto", "cpp", "torch"):
             raise ConfigError(
                 f"network.lateral_kernel={self.lateral_kernel!r} is not one of auto, cpp, torch"
+            )
+        if self.lateral_init not in ("xavier", "zero"):
+            raise ConfigError(
+                f"network.lateral_init={self.lateral_init!r} is not one of xavier, zero"
             )
 
 

@@ -34,7 +34,8 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
             "target_update": 500,
             "double_q": False,
             "keep": "last",
-        }
+        },
+        "network": {"lateral_init": "xavier"},
     },
 }
 

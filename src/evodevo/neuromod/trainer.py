@@ -325,6 +325,8 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
     for part in (theirs, mine):
         if isinstance(part.get("network"), dict):
             part["network"] = {k: v for k, v in part["network"].items() if k != "lateral_kernel"}
+            # configs written before network.lateral_init existed ran with Xavier laterals
+            part["network"].setdefault("lateral_init", "xavier")
     for key in ("variant", "seed", "tasks", "episodes_scale", "dqn", "network", "modules"):
         if theirs.get(key) != mine.get(key):
             raise CheckpointError(
