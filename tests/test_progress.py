@@ -53,3 +53,20 @@ def test_evaluate_shows_a_bar_on_stderr_only(run):
     quiet = runner.invoke(app, [*args, "--no-baselines", "--json", "--quiet"])
     assert quiet.exit_code == 0 and quiet.stderr == ""
     assert json.loads(quiet.stdout.strip().splitlines()[-1])["episodes"] == 3
+
+
+def test_reproduce_shows_a_bar_over_its_steps(tmp_path, monkeypatch):
+    from evodevo.reproduce import pipeline, report
+
+    steps = [pipeline.Step(f"step-{i}", ["--version"], [tmp_path / f"{i}.out"]) for i in range(2)]
+    ran: list[str] = []
+    monkeypatch.setattr(pipeline, "plan", lambda cfg, out: steps)
+    monkeypatch.setattr(pipeline, "run_step", lambda step, logs: ran.append(step.name))
+    monkeypatch.setattr(report, "write_report", lambda out, cfg, wall_s: out / "report.md")
+    res = runner.invoke(app, ["reproduce", "--out", str(tmp_path / "out")])
+    assert res.exit_code == 0, (res.output, res.exception)
+    assert ran == ["step-0", "step-1"]
+    assert "reproduce" in res.stderr and "2/2" in res.stderr and "ETA" in res.stderr
+    assert "[2/2] step-1" in res.stdout  # the step lines stay on stdout
+    quiet = runner.invoke(app, ["reproduce", "--out", str(tmp_path / "out"), "--quiet"])
+    assert quiet.exit_code == 0 and quiet.stderr == ""

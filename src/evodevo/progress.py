@@ -6,18 +6,21 @@ items through :func:`evodevo.parallel.report_progress`, so the code that evaluat
 progress calls of its own. Each new ``map`` restarts the bar as the next phase; the columns
 show items done, elapsed time and the time remaining for the phase. :class:`GenerationBar` adds
 a bar over the generations of an evolution with the ETA of the whole run, and prints the
-per-generation line above the bars. Machine-readable output (``--json``, tables) stays on
+per-generation line above the bars. :class:`TrainingBar` is a Kuka baseline's training hook (a
+bar over its env-step budget or NEAT's generations), :class:`StepBar` a bar over the steps of a
+script (``evodevo reproduce``). Machine-readable output (``--json``, tables) stays on
 stdout, untouched.
 """
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 from evodevo.parallel import report_progress
 
-__all__ = ["CommandProgress", "GenerationBar", "generation_line"]
+__all__ = ["CommandProgress", "GenerationBar", "TrainingBar", "StepBar", "generation_line"]
 
 
 def _columns() -> list[Any]:
@@ -45,11 +48,19 @@ class CommandProgress:
     Args:
         description: what the command does ("evaluate", "ablate", ...).
         quiet: show nothing.
+        on_item: also told ``(done, total)`` after every finished item, quiet or not (e.g. to
+            export a finished run's metrics to TensorBoard).
     """
 
-    def __init__(self, description: str, quiet: bool = False) -> None:
+    def __init__(
+        self,
+        description: str,
+        quiet: bool = False,
+        on_item: Callable[[int, int], None] | None = None,
+    ) -> None:
         self.description = description
         self.quiet = quiet
+        self.on_item = on_item
         self.progress: Any = None
         self._task: Any = None
         self._phase = 0
@@ -57,6 +68,9 @@ class CommandProgress:
 
     def __enter__(self) -> CommandProgress:
         if self.quiet:
+            if self.on_item is not None:
+                self._guard = report_progress(self._on_map)
+                self._guard.__enter__()
             return self
         from rich.console import Console
         from rich.progress import Progress
@@ -76,6 +90,8 @@ class CommandProgress:
             self.progress = None
 
     def _on_map(self, done: int, total: int) -> None:
+        if self.on_item is not None and done > 0:
+            self.on_item(done, total)
         if self.progress is None:
             return
         if done == 0:  # a new map: the next phase
@@ -134,3 +150,80 @@ class GenerationBar:
     def on_end(self, evo: Any) -> None:
         if self._task is not None:  # an early stop ends the bar where evolution ended
             self.cmd.progress.update(self._task, total=evo.generation, completed=evo.generation)
+
+
+class _Bar:
+    """One Rich bar on stderr (nothing when quiet); a context manager."""
+
+    def __init__(self, description: str, total: int | None, quiet: bool, completed: int = 0):
+        self.description = description
+        self.total = total
+        self.quiet = quiet
+        self.completed = completed
+        self.progress: Any = None
+        self._task: Any = None
+
+    def __enter__(self) -> Any:
+        if self.quiet:
+            return self
+        from rich.console import Console
+        from rich.progress import Progress
+
+        self.progress = Progress(*_columns(), console=Console(file=sys.stderr))
+        self.progress.start()
+        self._task = self.progress.add_task(
+            self.description, total=self.total, completed=self.completed
+        )
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+            self.progress = None
+
+    def update(self, completed: int, description: str | None = None) -> None:
+        self.completed = completed
+        if self.progress is not None:
+            shown = min(completed, self.total) if self.total is not None else completed
+            kwargs = {} if description is None else {"description": description}
+            self.progress.update(self._task, completed=shown, **kwargs)
+
+
+class TrainingBar(_Bar):
+    """A Kuka baseline's training hook (:class:`~evodevo.baselines.hooks.TrainingHook`): a bar
+    with ETA over the env-step budget (``total`` steps), or over NEAT's generations
+    (``by_generation``); ``total`` None (a wall-clock budget) shows the count and elapsed time.
+    """
+
+    def __init__(
+        self, description: str, total: int | None, quiet: bool = False, by_generation: bool = False
+    ) -> None:
+        super().__init__(description, total, quiet)
+        self.by_generation = by_generation
+
+    def on_steps(self, env_steps: int) -> None:
+        if not self.by_generation:
+            self.update(int(env_steps))
+
+    def on_curve_row(self, row: dict[str, Any]) -> None:
+        """Unused hook."""
+
+    def on_generation(self, row: dict[str, Any]) -> None:
+        if self.by_generation:
+            self.update(int(row["generation"]) + 1)
+
+
+class StepBar(_Bar):
+    """A bar over the steps of a script (``evodevo reproduce``), with the running step's name.
+
+    >>> with StepBar("reproduce", 2, quiet=True) as bar:
+    ...     bar.step(0, "grn evolve")
+    ...     bar.step(1, "report")
+    ...     bar.update(2)
+    >>> bar.completed
+    2
+    """
+
+    def step(self, done: int, name: str) -> None:
+        """Step ``name`` starts; ``done`` steps are finished (or skipped)."""
+        self.update(done, f"{self.description} [{done + 1}/{self.total}] {name}")

@@ -1,13 +1,17 @@
 """TensorBoard as an optional sink beside the CSV files (which stay the source of truth).
 
-``--tensorboard DIR`` on ``biarm train`` and ``grn evolve`` writes the numbers of
-``metrics.csv`` and ``history.csv`` as TensorBoard scalars
-(``tensorboard --logdir DIR``), through ``torch.utils.tensorboard`` (needs the ``tensorboard``
-package: ``pip install 'evodevo[tensorboard]'``). Nothing is written inside a hot loop: one
-event per training episode (BIARM) or per generation (evolution), flushed as TensorBoard does.
+``--tensorboard DIR`` on ``biarm train``, ``biarm compare``, ``grn evolve`` and
+``baselines kuka`` writes the numbers of ``metrics.csv``, ``history.csv`` and
+``learning_curve.csv`` as TensorBoard scalars (``tensorboard --logdir DIR``), through
+``torch.utils.tensorboard`` (needs the ``tensorboard`` package:
+``pip install 'evodevo[tensorboard]'``). Nothing is written inside a hot loop: one event per
+training episode (BIARM), per generation (evolution) or per learning-curve point (baselines),
+flushed as TensorBoard does.
 
-:class:`EpisodeScalars` is a BIARM episode hook, :class:`GenerationScalars` an evolution hook;
-both wrap a :func:`writer`.
+:class:`EpisodeScalars` is a BIARM episode hook, :class:`GenerationScalars` an evolution hook,
+:class:`CurveScalars` a baseline-training hook; all wrap a :func:`writer`. :class:`RunsExporter`
+copies the ``metrics.csv`` of every finished run of a ``biarm compare`` grid (whose runs train in
+worker processes) into ``DIR/<run>``, as each run finishes.
 """
 
 from __future__ import annotations
@@ -19,11 +23,18 @@ from typing import Any
 
 from evodevo.errors import EvodevoError
 
-__all__ = ["writer", "EpisodeScalars", "GenerationScalars", "read_scalars"]
+__all__ = [
+    "writer",
+    "EpisodeScalars",
+    "GenerationScalars",
+    "CurveScalars",
+    "RunsExporter",
+    "read_scalars",
+]
 
 
-def writer(logdir: str | Path) -> Any:
-    """A ``SummaryWriter`` for ``logdir``, or a one-line error naming the missing package."""
+def _summary_writer() -> Any:
+    """``SummaryWriter``, or a one-line error naming the missing package."""
     try:
         from torch.utils.tensorboard import SummaryWriter
     except ImportError:
@@ -31,8 +42,26 @@ def writer(logdir: str | Path) -> Any:
             "--tensorboard needs the tensorboard package: pip install 'evodevo[tensorboard]' "
             "(or pip install tensorboard)"
         ) from None
-    Path(logdir).mkdir(parents=True, exist_ok=True)
-    return SummaryWriter(log_dir=str(logdir))
+    return SummaryWriter
+
+
+def _make_logdir(logdir: str | Path) -> Path:
+    """Create ``logdir``; a one-line error when it is a file or cannot be created."""
+    path = Path(logdir)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise EvodevoError(
+            f"--tensorboard {str(path)!r} cannot be used as a folder ({exc.strerror or exc}); "
+            "give a folder that can be created"
+        ) from None
+    return path
+
+
+def writer(logdir: str | Path) -> Any:
+    """A ``SummaryWriter`` for ``logdir``, or a one-line error naming the missing package."""
+    summary_writer = _summary_writer()
+    return summary_writer(log_dir=str(_make_logdir(logdir)))
 
 
 class EpisodeScalars:
@@ -73,6 +102,7 @@ class GenerationScalars:
         "best_connections",
         "retest_success",
         "evals_per_s",
+        "episodes_saved",
     )
 
     def __init__(self, logdir: str | Path) -> None:
@@ -87,6 +117,88 @@ class GenerationScalars:
 
     def on_end(self, evo: Any) -> None:
         self.tb.close()
+
+
+class CurveScalars:
+    """Baseline-training hook (:class:`~evodevo.baselines.hooks.TrainingHook`).
+
+    Every ``learning_curve.csv`` row as ``baseline/success``, ``baseline/mean_reward`` and
+    ``baseline/train_s`` (step: env steps), and NEAT's ``history.csv`` rows as
+    ``neat/best_fitness`` etc. (step: generation).
+    """
+
+    CURVE = ("success", "mean_reward", "train_s")
+    NEAT = ("best_fitness", "mean_fitness", "best_success", "mean_success", "best_connections")
+
+    def __init__(self, logdir: str | Path) -> None:
+        self.tb = writer(logdir)
+
+    def _add(self, tag: str, value: Any, step: int) -> None:
+        v = float(value)
+        if not math.isnan(v):
+            self.tb.add_scalar(tag, v, step)
+
+    def on_steps(self, env_steps: int) -> None:
+        """Unused hook."""
+
+    def on_curve_row(self, row: dict[str, Any]) -> None:
+        for name in self.CURVE:
+            self._add(f"baseline/{name}", row[name], int(row["env_steps"]))
+        self.tb.flush()
+
+    def on_generation(self, row: dict[str, Any]) -> None:
+        for name in self.NEAT:
+            self._add(f"neat/{name}", row[name], int(row["generation"]))
+        self.tb.flush()
+
+    def close(self) -> None:
+        self.tb.close()
+
+
+class RunsExporter:
+    """``metrics.csv`` of every finished run under ``runs`` into ``logdir/<run folder>``.
+
+    Tags as :class:`EpisodeScalars` (``task{i}_{env}/return|length|epsilon|lr``, step: episode).
+    A run is exported once: when ``summary.json`` exists and its log folder holds no events yet
+    (so a resumed grid does not write a finished run twice).
+    """
+
+    FIELDS = ("return", "length", "epsilon", "lr")
+
+    def __init__(self, runs: str | Path, logdir: str | Path) -> None:
+        _summary_writer()  # fail before any training, in one line, when tensorboard is missing
+        self.runs = Path(runs)
+        self.logdir = _make_logdir(logdir)
+
+    def on_item(self, done: int, total: int) -> None:
+        """A :class:`~evodevo.progress.CommandProgress` callback: a run of the grid finished."""
+        self.export_finished()
+
+    def export_finished(self) -> list[str]:
+        """Export the runs finished since the last call; returns their folder names."""
+        import csv
+
+        done: list[str] = []
+        if not self.runs.is_dir():
+            return done
+        for run in sorted(self.runs.iterdir()):
+            target = self.logdir / run.name
+            if not (run / "summary.json").is_file() or not (run / "metrics.csv").is_file():
+                continue
+            if any(target.glob("events.out.tfevents.*")):
+                continue
+            tb = writer(target)
+            try:
+                with (run / "metrics.csv").open() as fh:
+                    for r in csv.DictReader(fh):
+                        prefix = f"task{r['task']}_{r['env_id']}"
+                        for name in self.FIELDS:
+                            if r.get(name) not in (None, ""):
+                                tb.add_scalar(f"{prefix}/{name}", float(r[name]), int(r["episode"]))
+            finally:
+                tb.close()
+            done.append(run.name)
+        return done
 
 
 def read_scalars(logdir: str | Path) -> dict[str, list[tuple[int, float]]]:

@@ -13,9 +13,11 @@ so ``evodevo grn evaluate`` and ``evodevo baselines evaluate`` test a baseline e
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from evodevo.baselines.hooks import TrainingHooks
 from evodevo.baselines.kuka_config import KukaBaselineConfig
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import ConfigError, EvodevoError
@@ -58,6 +60,7 @@ def run_baseline(
     quiet: bool = False,
     backend: str = "local",
     address: str | None = None,
+    hooks: Sequence[Any] = (),
 ) -> dict[str, Any]:
     """Train (or, for zero/random, just record) the baseline ``cfg.method`` into ``out``.
 
@@ -70,6 +73,7 @@ def run_baseline(
         quiet: no progress lines.
         backend: "local" or "ray": where NEAT's evaluator runs (the same numbers either way).
         address: Ray cluster ("auto" or HOST:PORT); None starts a private local Ray.
+        hooks: :class:`~evodevo.baselines.hooks.TrainingHook` s (progress, TensorBoard).
 
     Returns:
         The run's ``summary.json`` content.
@@ -97,12 +101,19 @@ def run_baseline(
     if cfg.method in ("ppo", "td3"):
         from evodevo.baselines.sb3_kuka import train_sb3
 
-        return train_sb3(cfg, run, resume=resume, quiet=quiet)
+        return train_sb3(cfg, run, resume=resume, quiet=quiet, hooks=TrainingHooks(hooks))
     if cfg.method == "neat":
         from evodevo.baselines.neat_kuka import train_neat
 
         return train_neat(
-            cfg, run, workers=workers, resume=resume, quiet=quiet, backend=backend, address=address
+            cfg,
+            run,
+            workers=workers,
+            resume=resume,
+            quiet=quiet,
+            backend=backend,
+            address=address,
+            hooks=TrainingHooks(hooks),
         )
     summary: dict[str, Any] = {
         "kind": "baseline_kuka",

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_config import KukaBaselineConfig
 from evodevo.baselines.policies import NeatNet, neat_config
 from evodevo.baselines.sb3_kuka import CURVE_FIELDS, summarise
@@ -157,11 +158,28 @@ class NeatState:
 class RunReporter:
     """neat-python reporter: after every generation, checkpoint and run-directory files."""
 
-    def __init__(self, run: RunDir, cfg: KukaBaselineConfig, state: NeatState, quiet: bool):
+    def __init__(
+        self,
+        run: RunDir,
+        cfg: KukaBaselineConfig,
+        state: NeatState,
+        quiet: bool,
+        hooks: TrainingHook | None = None,
+    ):
         self.run = run
         self.cfg = cfg
         self.state = state
         self.quiet = quiet
+        self.hooks = hooks if hooks is not None else TrainingHook()
+
+    def __getstate__(self) -> dict[str, Any]:
+        """neat-python pickles its species set, reporters included, into every checkpoint: leave
+        out the live hooks (progress bar, TensorBoard writer)."""
+        return {k: v for k, v in self.__dict__.items() if k != "hooks"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self.hooks = TrainingHook()
 
     # neat-python's reporter hooks (BaseReporter interface)
     def start_generation(self, generation: int) -> None:
@@ -211,8 +229,11 @@ class RunReporter:
             if suffix.isdigit() and int(suffix) < nxt - 1:
                 old.unlink(missing_ok=True)
         self.write_outputs()
+        h = self.state.history[-1]
+        self.hooks.on_generation(h)
+        self.hooks.on_curve_row(curve_rows([h])[0])
+        self.hooks.on_steps(self.state.env_steps)
         if not self.quiet:
-            h = self.state.history[-1]
             print(
                 f"gen {h['generation'] + 1:>3} best F {h['best_fitness']:6.2f} "
                 f"best success {h['best_success']:.2f} steps {h['env_steps']} "
@@ -309,6 +330,7 @@ def train_neat(
     quiet: bool = False,
     backend: str = "local",
     address: str | None = None,
+    hooks: TrainingHook | None = None,
 ) -> dict[str, Any]:
     """Evolve NEAT networks per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict.
 
@@ -316,9 +338,12 @@ def train_neat(
     processes (``backend="local"``) or Ray actors (``backend="ray"``, cluster ``address``).
 
     Budget: ``budget.env_steps`` and/or ``budget.minutes`` (checked after every generation, so a
-    run ends within one generation past it), else ``neat.generations``.
+    run ends within one generation past it), else ``neat.generations``. ``hooks`` hear every
+    generation's history and learning-curve rows once they are written.
     """
     import neat
+
+    hooks = hooks if hooks is not None else TrainingHooks()
 
     ecfg = cfg.evaluator_config()
     # A run killed before its first generation's checkpoint has nothing to continue: start it.
@@ -336,8 +361,9 @@ def train_neat(
             ini = write_neat_config(cfg, ev.n_actions, run)
             pop = neat.Population(neat_config(ini), seed=cfg.seed)
             state = NeatState()
-        reporter = RunReporter(run, cfg, state, quiet)
+        reporter = RunReporter(run, cfg, state, quiet, hooks)
         pop.add_reporter(reporter)
+        hooks.on_steps(state.env_steps)
 
         def fitness(genomes: list[tuple[int, Any]], config: Any) -> None:
             t0 = time.perf_counter()

@@ -43,6 +43,7 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
 from torch import nn
 
+from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
 from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import make_env
@@ -56,6 +57,7 @@ __all__ = [
     "BudgetCallback",
     "TimedEvalCallback",
     "ClockCallback",
+    "StepsCallback",
     "train_sb3",
     "CURVE_FIELDS",
 ]
@@ -162,12 +164,19 @@ class TimedEvalCallback(EvalCallback):
     """SB3's EvalCallback, timed (excluded from training time) and logged to a CSV row each time."""
 
     def __init__(
-        self, eval_env: Any, clock: TrainClock, run: RunDir, quiet: bool, **kwargs: Any
+        self,
+        eval_env: Any,
+        clock: TrainClock,
+        run: RunDir,
+        quiet: bool,
+        hooks: TrainingHook | None = None,
+        **kwargs: Any,
     ) -> None:
         super().__init__(eval_env, **kwargs)
         self.clock = clock
         self.run = run
         self.quiet = quiet
+        self.hooks = hooks if hooks is not None else TrainingHook()
         self.rows: list[dict[str, Any]] = []
 
     def _on_step(self) -> bool:
@@ -186,6 +195,7 @@ class TimedEvalCallback(EvalCallback):
         }
         self.rows.append(row)
         self.run.write_csv("learning_curve.csv", self.rows, CURVE_FIELDS)
+        self.hooks.on_curve_row(row)
         if not self.quiet:
             print(
                 f"steps {row['env_steps']:>7} success {success:.2f} training {row['train_s']:.0f}s",
@@ -193,6 +203,18 @@ class TimedEvalCallback(EvalCallback):
                 flush=True,
             )
         return out
+
+
+class StepsCallback(BaseCallback):
+    """Tells the training hooks the env steps done after every step (progress bars)."""
+
+    def __init__(self, hooks: TrainingHook) -> None:
+        super().__init__()
+        self.hooks = hooks
+
+    def _on_step(self) -> bool:
+        self.hooks.on_steps(int(self.num_timesteps))
+        return True
 
 
 class ClockCallback(BaseCallback):
@@ -362,9 +384,17 @@ def buffer_refills(folder: Path) -> list[int]:
 
 
 def train_sb3(
-    cfg: KukaBaselineConfig, run: RunDir, resume: bool = False, quiet: bool = False
+    cfg: KukaBaselineConfig,
+    run: RunDir,
+    resume: bool = False,
+    quiet: bool = False,
+    hooks: TrainingHook | None = None,
 ) -> dict[str, Any]:
-    """Train PPO or TD3 per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict."""
+    """Train PPO or TD3 per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict.
+
+    ``hooks`` hear the env steps after every step and every ``learning_curve.csv`` row.
+    """
+    hooks = hooks if hooks is not None else TrainingHooks()
     b = cfg.budget
     max_steps = (
         b.env_steps if b.env_steps is not None else (None if b.minutes else b.default_env_steps)
@@ -390,6 +420,7 @@ def train_sb3(
             clock,
             run,
             quiet,
+            hooks,
             n_eval_episodes=b.eval_episodes,
             eval_freq=b.eval_every_steps,
             deterministic=True,
@@ -409,8 +440,10 @@ def train_sb3(
                 ClockCallback(clock, b.checkpoint_every_steps, folder),
                 evaluator,
                 budget,
+                StepsCallback(hooks),
             ]
         )
+        hooks.on_steps(done_steps)
         remaining = (max_steps - done_steps) if max_steps is not None else _UNLIMITED_STEPS
         clock.begin()
         if remaining > 0 and (max_s is None or clock.train_s < max_s):

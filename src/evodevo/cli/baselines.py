@@ -71,7 +71,12 @@ def kuka(
     backend: str = typer.Option("local", help=BACKEND_HELP + " NEAT only."),
     address: str | None = typer.Option(None, help=ADDRESS_HELP),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress lines."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar or lines (stderr)."),
+    tensorboard: Path | None = typer.Option(
+        None,
+        help="Also write learning_curve.csv's numbers (and NEAT's history.csv) as TensorBoard "
+        "scalars into this folder.",
+    ),
 ) -> None:
     """Train one Kuka baseline into OUT (config.json, summary.json, learning_curve.csv, model).
 
@@ -80,7 +85,6 @@ def kuka(
     `baselines evaluate`.
     """
     from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
-    from evodevo.baselines.kuka_runner import run_baseline
     from evodevo.config import load_config
     from evodevo.parallel import set_single_thread
     from evodevo.runs import read_json
@@ -121,9 +125,7 @@ def kuka(
         cfg = load_config(KukaBaselineConfig, None, _merge(saved.get("config", {}), ov))
     else:
         cfg = load_config(KukaBaselineConfig, config, ov)
-    summary = run_baseline(
-        cfg, out, workers=workers, resume=resume, quiet=quiet, backend=backend, address=address
-    )
+    summary = _train(cfg, out, workers, resume, quiet, backend, address, tensorboard)
     reach = summary.get("time_to_target_s")
     typer.echo(
         f"{cfg.method}: {summary['env_steps']} env steps, {summary['wall_s']:.0f} s training"
@@ -131,6 +133,54 @@ def kuka(
         + (f"reached after {reach:.0f} s" if reach is not None else "not reached")
         + f"; run in {out}"
     )
+
+
+def _train(
+    cfg: Any,
+    out: Path,
+    workers: int,
+    resume: bool,
+    quiet: bool,
+    backend: str,
+    address: str | None,
+    tensorboard: Path | None,
+) -> dict[str, Any]:
+    """``run_baseline`` with a progress bar over the budget and the TensorBoard sink."""
+    from evodevo.baselines.kuka_runner import run_baseline
+    from evodevo.progress import TrainingBar
+
+    b = cfg.budget
+    by_generation = cfg.method == "neat" and b.env_steps is None
+    if b.env_steps is not None:
+        total: int | None = b.env_steps
+    elif b.minutes is not None:
+        total = None  # a wall-clock budget: the bar counts steps (generations) and time
+    else:
+        total = cfg.neat.generations if by_generation else b.default_env_steps
+    unit = "generations" if by_generation else "env steps"
+    trained = cfg.method in ("ppo", "td3", "neat")
+    hooks: list[Any] = []
+    tb = None
+    if tensorboard is not None:
+        from evodevo.tensorboard import CurveScalars
+
+        tb = CurveScalars(tensorboard)
+        hooks.append(tb)
+    try:
+        with TrainingBar(f"{cfg.method} {unit}", total, quiet or not trained, by_generation) as bar:
+            return run_baseline(
+                cfg,
+                out,
+                workers=workers,
+                resume=resume,
+                quiet=quiet,
+                backend=backend,
+                address=address,
+                hooks=[bar, *hooks],
+            )
+    finally:
+        if tb is not None:
+            tb.close()
 
 
 def _check_baseline_run(run_dir: Path) -> None:

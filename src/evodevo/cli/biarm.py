@@ -261,6 +261,11 @@ def compare(
     ),
     out: Path = typer.Option(..., help="Output folder (runs/, tables, figures)."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
+    tensorboard: Path | None = typer.Option(
+        None,
+        help="Also write each finished run's per-episode metrics as TensorBoard scalars into "
+        "this folder (one subfolder per run).",
+    ),
 ) -> None:
     """Run the variant x seed grid in parallel (resumable) and write tables and figures.
 
@@ -282,10 +287,18 @@ def compare(
     check_backend(backend, address, workers)
     from evodevo.progress import CommandProgress
 
-    with CommandProgress("training runs", quiet):
+    exporter = None
+    if tensorboard is not None:
+        from evodevo.tensorboard import RunsExporter
+
+        exporter = RunsExporter(out / "runs", tensorboard)
+    on_item = exporter.on_item if exporter is not None else None
+    with CommandProgress("training runs", quiet, on_item=on_item):
         done = run_grid(
             cfg, names, seed_list, out, workers=workers, backend=backend, address=address
         )
+    if exporter is not None:  # and the runs finished by an earlier invocation
+        exporter.export_finished()
     typer.echo(f"trained {len(done)} run(s); writing tables and figures")
     report = write_report(out)
     typer.echo(f"wrote {report}")
@@ -303,6 +316,7 @@ def sweep(
     workers: int = typer.Option(1, help="Parallel runs (worker processes)."),
     table_only: bool = typer.Option(False, help="Only rewrite the table from finished runs."),
     out: Path = typer.Option(..., help="Sweep folder (OUT/PROTOCOL/TASK/VARIANT__sSEED)."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """The DQN protocol sweep (SPEC 1.6, issue 21): each task alone, per protocol.
 
@@ -320,7 +334,10 @@ def sweep(
     )
     if not table_only:
         set_single_thread()
-        done = run_sweep(spec, out, workers=workers)
+        from evodevo.progress import CommandProgress
+
+        with CommandProgress("training runs", quiet):
+            done = run_sweep(spec, out, workers=workers)
         typer.echo(f"trained {len(done)} run(s)")
     typer.echo(sweep_table(spec, out))
 

@@ -38,6 +38,7 @@ def reproduce(
     old_seed: int | None = typer.Option(
         None, "--seed", hidden=True, help="Deprecated name of --seed-offset."
     ),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar over the steps (stderr)."),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
     from evodevo.parallel import set_single_thread
@@ -55,4 +56,5 @@ def reproduce(
         report_only=report_only,
         only=only,
         show_plan=show_plan,
+        quiet=quiet,
     )

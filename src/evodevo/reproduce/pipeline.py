@@ -19,6 +19,7 @@ from typing import Any
 
 from evodevo.config import load_config, to_dict
 from evodevo.errors import EvodevoError
+from evodevo.progress import StepBar
 from evodevo.reproduce.budget import PRESETS, ReproduceConfig
 from evodevo.runs import RunDir, atomic_write_text
 from evodevo.seeding import parse_seeds
@@ -389,13 +390,15 @@ def run_reproduce(
     report_only: bool = False,
     only: list[str] | None = None,
     show_plan: bool = False,
+    quiet: bool = False,
 ) -> Path:
     """Run (or resume) every step of ``budget`` into ``out`` and write the report; return its path.
 
     ``only``: shell-style patterns of step names (e.g. ``kuka-*-td3-x5-s0``); the other steps
     are left as they are, and the report still covers the whole budget (its unfinished parts
     listed), so several selections can run side by side into one folder. ``show_plan``: print
-    each (selected) step with its status and return without running anything.
+    each (selected) step with its status and return without running anything. Unless ``quiet``,
+    a bar on stderr counts the steps (elapsed time, ETA) and names the running one.
     """
     from evodevo.reproduce.report import write_report
 
@@ -426,14 +429,18 @@ def run_reproduce(
     run.write_config(to_dict(cfg), kind="reproduce")
     steps = [] if report_only else select(plan(cfg, out), only)
     t0 = time.perf_counter()
-    for i, step in enumerate(steps, 1):
-        if step.done():
-            print(f"[{i}/{len(steps)}] {step.name}: done already, skipped", flush=True)
-            continue
-        print(
-            f"[{i}/{len(steps)}] {step.name} (elapsed {time.perf_counter() - t0:.0f} s)", flush=True
-        )
-        run_step(step, out / "logs")
+    with StepBar("reproduce", len(steps), quiet=quiet or not steps) as bar:
+        for i, step in enumerate(steps, 1):
+            bar.step(i - 1, step.name)
+            if step.done():
+                print(f"[{i}/{len(steps)}] {step.name}: done already, skipped", flush=True)
+                continue
+            print(
+                f"[{i}/{len(steps)}] {step.name} (elapsed {time.perf_counter() - t0:.0f} s)",
+                flush=True,
+            )
+            run_step(step, out / "logs")
+        bar.update(len(steps), "reproduce: report")
     path = write_report(out, cfg, wall_s=time.perf_counter() - t0)
     print(
         f"report: {path} (and {path.with_suffix('.html')}) after {time.perf_counter() - t0:.0f} s",
