@@ -6,20 +6,25 @@ worker, lockstep 4, as ``evodevo grn evolve``/``evaluate`` run them), once with
 settled-scene cache (the first reset of a drop settles it, later ones place it):
 
 * **generation**: one generation, 12 genomes (an evolved genome and 11 mutants of it) × 10
-  common episode seeds (3 of them with visual noise), training objects;
+  common episode seeds (3 of them with visual noise), training objects; a third arm,
+  ``cached_dedupe``, adds ``evaluation.dedupe``: a mutant whose mutation changed nothing (a
+  clone of the evolved genome, :func:`evodevo.grn.evaluator.genome_key`) is not run again but
+  gets its twin's results, as the evaluator does for one generation's call (its episodes count
+  as scored, so its rate is episodes scored per CPU-second);
 * **test**: the 200-episode test (fixed test seeds, held-out objects) of one policy, repeated
   for 7 policies: the evolved GRN, its noisy twin, the all-zero, uniform-random and
   constant-turn policies, and two mutants of the GRN (stand-ins for ablated genomes).
 
-The two arms alternate genome by genome (policy by policy), so both see the same machine load.
-Rates are episodes per second of process CPU time; ``ratio`` = cached / uncached. The two arms
+The arms alternate genome by genome (policy by policy), so all see the same machine load.
+Rates are episodes per second of process CPU time; ``ratio`` = cached / uncached,
+``ratio_dedupe`` = cached_dedupe / uncached. The cached and uncached arms
 play the same seeds and actions: ``same_success`` counts the episodes whose success is the same
 in both (the uncached arm settles the objects in the episode's own world, whose contact caches
 the episode inherits, so single outcomes can differ; docs/kuka_env.md, "Settled-scene cache").
 
 Usage::
 
-    python benchmarks/evolution_speed.py [--quick] [--test-seeds N] [--json]
+    python benchmarks/evolution_speed.py [--quick] [--seeds N] [--test-seeds N] [--no-test] [--json]
 
 The last line of output is JSON. ``--quick`` (a smoke run for ``python -m benchmarks --quick``;
 its ratios mean little): 2 genomes × 1 seed and 2 policies × 1 seed.
@@ -78,6 +83,7 @@ def run(
     policies: int | None = None,
     test_seeds: int | None = None,
     run_dir: str | Path = DEFAULT_RUN,
+    test: bool = True,
 ) -> dict[str, Any]:
     """Time both workloads cached and uncached; see the module docstring.
 
@@ -88,14 +94,17 @@ def run(
         policies: Policies of the test, at most 7 (default 7).
         test_seeds: Test episodes per policy (default 200).
         run_dir: GRN run whose evolved genome, encoder and config are used.
+        test: also time the test workload (False: the generation only).
 
     Returns:
-        Per workload: episodes, CPU seconds and episodes per CPU-second of both arms, their
-        ``ratio``, ``same_success`` and the cache's hits and misses; ``max_rss_mib``.
+        Per workload: episodes, CPU seconds and episodes per CPU-second of every arm, the
+        ``ratio`` (and for the generation ``ratio_dedupe``, ``clones``, ``dedupe_same``: the
+        dedupe arm's outcomes equal the cached arm's), ``same_success`` and the cache's hits
+        and misses; ``max_rss_mib``.
     """
     from evodevo.envs.scene_cache import SceneCache
     from evodevo.grn.evaluation import test_episodes
-    from evodevo.grn.evaluator import Evaluator
+    from evodevo.grn.evaluator import Evaluator, genome_key
     from evodevo.grn.evolution import EPISODE_KEY, training_episodes
 
     n_gen = genomes if genomes is not None else (2 if quick else 12)
@@ -124,19 +133,51 @@ def run(
 
     # one generation: genome by genome, alternating the arms
     gen = arms()
+    dedupe_cache = SceneCache()
     evs = {name: Evaluator(a["config"], encoder) for name, a in gen.items()}
-    success: dict[str, list[np.ndarray]] = {name: [] for name in gen}
-    cpu = dict.fromkeys(gen, 0.0)
+    evs["cached_dedupe"] = Evaluator(_with_env(config, scene_cache=dedupe_cache), encoder)
+    success: dict[str, list[np.ndarray]] = {name: [] for name in evs}
+    cpu = dict.fromkeys(evs, 0.0)
+    seen: dict[Any, np.ndarray] = {}  # the dedupe arm's distinct genomes so far
     try:
         for g in population:
             for name, ev in evs.items():
+                key = genome_key(g)
+                if name == "cached_dedupe" and key in seen:
+                    success[name].append(seen[key])  # a twin's copy: no episode run
+                    continue
                 s, c = timed(ev, [g], train)
                 success[name].append(s)
                 cpu[name] += c
+                if name == "cached_dedupe":
+                    seen[key] = s
     finally:
         for ev in evs.values():
             ev.close()
-    res["generation"] = _summary(gen, success, cpu, f"{n_gen} genomes x {n_seeds} common seeds")
+    dedupe_success = success.pop("cached_dedupe")
+    dedupe_cpu = cpu.pop("cached_dedupe")
+    res["generation"] = g_res = _summary(
+        gen, success, cpu, f"{n_gen} genomes x {n_seeds} common seeds"
+    )
+    g_res["clones"] = n_gen - len(seen)
+    g_res["cached_dedupe_episodes_run"] = len(seen) * n_seeds
+    g_res["cached_dedupe_cpu_s"] = round(dedupe_cpu, 2)
+    g_res["cached_dedupe_episodes_per_cpu_s"] = rate = (
+        n_gen * n_seeds / dedupe_cpu if dedupe_cpu > 0 else None
+    )
+    base = g_res["uncached_episodes_per_cpu_s"]
+    g_res["ratio_dedupe"] = rate / base if rate and base else None
+    same = np.concatenate(dedupe_success) == np.concatenate(success["cached"])
+    g_res["dedupe_same"] = f"{int(same.sum())}/{same.size}"
+    g_res["dedupe_cache_hits"], g_res["dedupe_cache_misses"] = (
+        dedupe_cache.hits,
+        dedupe_cache.misses,
+    )
+    res["ratio_generation"] = g_res["ratio"]
+    res["ratio_generation_dedupe"] = g_res["ratio_dedupe"]
+    if not test:
+        res["max_rss_mib"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
+        return res
 
     # the test of n_pol policies on the same n_test held-out-object seeds
     clean = test_episodes(config.evaluation.test_seed, n_test, test_objects=True)
@@ -167,7 +208,6 @@ def run(
     res["test"] = _summary(test, success, cpu, f"{n_pol} policies x {n_test} test seeds")
     res["test"]["policies"] = [name for name, *_ in plan]
     res["max_rss_mib"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
-    res["ratio_generation"] = res["generation"]["ratio"]
     res["ratio_test"] = res["test"]["ratio"]
     return res
 
@@ -200,10 +240,19 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seeds", type=int, default=None)
     ap.add_argument("--policies", type=int, default=None)
     ap.add_argument("--test-seeds", type=int, default=None)
+    ap.add_argument("--no-test", action="store_true", help="time the generation only")
     ap.add_argument("--run", default=str(DEFAULT_RUN), help="GRN run directory")
     ap.add_argument("--out", default=None, help="write the JSON result here too")
     args = ap.parse_args(argv)
-    res = run(args.quick, args.genomes, args.seeds, args.policies, args.test_seeds, args.run)
+    res = run(
+        args.quick,
+        args.genomes,
+        args.seeds,
+        args.policies,
+        args.test_seeds,
+        args.run,
+        test=not args.no_test,
+    )
     if not args.json:
         for k, v in res.items():
             print(f"{k}: {v}")
