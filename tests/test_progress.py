@@ -62,7 +62,7 @@ def test_reproduce_shows_a_bar_over_its_steps(tmp_path, monkeypatch):
     ran: list[str] = []
     monkeypatch.setattr(pipeline, "plan", lambda cfg, out: steps)
     monkeypatch.setattr(pipeline, "run_step", lambda step, logs: ran.append(step.name))
-    monkeypatch.setattr(report, "write_report", lambda out, cfg, wall_s: out / "report.md")
+    monkeypatch.setattr(report, "write_report", lambda out, cfg, **kw: out / "report.md")
     res = runner.invoke(app, ["reproduce", "--out", str(tmp_path / "out")])
     assert res.exit_code == 0, (res.output, res.exception)
     assert ran == ["step-0", "step-1"]

@@ -467,3 +467,14 @@ def test_plan_lists_steps_and_runs_nothing(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines and all(": to do" in line and "ppo" in line for line in lines)
     assert not (tmp_path / "out").exists()  # not even config.json
+
+
+def test_header_says_what_ran_this_time():
+    """Issue 23: a report rewritten from saved runs said "0.0 min for the steps run this time"."""
+    from evodevo.reproduce.report import _this_time
+
+    assert (
+        _this_time(0.01, 0) == "; no step ran this time (the report is drawn from the saved runs)."
+    )
+    assert _this_time(90.0, 2) == "; 2 steps ran this time, in 1.5 min."
+    assert _this_time(None, None) == "."

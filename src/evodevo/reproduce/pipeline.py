@@ -429,6 +429,7 @@ def run_reproduce(
     run.write_config(to_dict(cfg), kind="reproduce")
     steps = [] if report_only else select(plan(cfg, out), only)
     t0 = time.perf_counter()
+    ran = 0
     with StepBar("reproduce", len(steps), quiet=quiet or not steps) as bar:
         for i, step in enumerate(steps, 1):
             bar.step(i - 1, step.name)
@@ -440,8 +441,9 @@ def run_reproduce(
                 flush=True,
             )
             run_step(step, out / "logs")
+            ran += 1
         bar.update(len(steps), "reproduce: report")
-    path = write_report(out, cfg, wall_s=time.perf_counter() - t0)
+    path = write_report(out, cfg, wall_s=time.perf_counter() - t0, steps_run=ran)
     print(
         f"report: {path} (and {path.with_suffix('.html')}) after {time.perf_counter() - t0:.0f} s",
         flush=True,

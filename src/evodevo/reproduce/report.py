@@ -69,9 +69,7 @@ def biarm_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         f"Budget: tasks {', '.join(b.tasks)}; {episodes}; variants {', '.join(b.variants)}; "
         f"seeds {b.seeds} ({len(parse_seeds(b.seeds))}); {b.eval_episodes} greedy evaluation "
         "episodes per task with fixed seeds. Thesis numbers are in their own column. DQN "
-        "protocols (SPEC §1.6): "
-        + "; ".join(f"`{p}` in `{f}/`" for f, p in grids(cfg))
-        + ".",
+        "protocols (SPEC §1.6): " + "; ".join(f"`{p}` in `{f}/`" for f, p in grids(cfg)) + ".",
         "",
     ]
     lines += protocol_table(out, cfg)
@@ -321,15 +319,31 @@ def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) ->
     return out
 
 
-def write_report(out: Path, cfg: ReproduceConfig, wall_s: float | None = None) -> Path:
-    """Write ``out/report.md`` and ``out/report.html``; return the Markdown path."""
+def _this_time(wall_s: float | None, steps_run: int | None) -> str:
+    """The header's account of this invocation: how many steps it ran, in how long."""
+    if steps_run == 0:
+        return "; no step ran this time (the report is drawn from the saved runs)."
+    if wall_s is None:
+        return "."
+    n = "" if steps_run is None else f"{steps_run} step{'s' if steps_run != 1 else ''} "
+    return f"; {n}ran this time, in {wall_s / 60:.1f} min."
+
+
+def write_report(
+    out: Path, cfg: ReproduceConfig, wall_s: float | None = None, steps_run: int | None = None
+) -> Path:
+    """Write ``out/report.md`` and ``out/report.html``; return the Markdown path.
+
+    ``wall_s`` and ``steps_run``: the wall time and number of the steps this invocation ran
+    (0: only the report was rewritten), for the header.
+    """
     m = machine_info()
     lines = [
         f"# evodevo reproduction report: budget `{cfg.name}`",
         "",
         f"Written {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} on {m['platform']} "
         f"({m['cpus']} CPUs, Python {m['python']}), {cfg.workers} worker processes"
-        + (f", {wall_s / 60:.1f} min for the steps run this time." if wall_s is not None else "."),
+        + _this_time(wall_s, steps_run),
         "Every number below was measured by this run; the thesis' numbers are shown beside ours. "
         "Logs of every step are in `logs/`, the resolved budget in `config.json`.",
         "",
