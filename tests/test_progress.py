@@ -70,3 +70,19 @@ def test_reproduce_shows_a_bar_over_its_steps(tmp_path, monkeypatch):
     assert "[2/2] step-1" in res.stdout  # the step lines stay on stdout
     quiet = runner.invoke(app, ["reproduce", "--out", str(tmp_path / "out"), "--quiet"])
     assert quiet.exit_code == 0 and quiet.stderr == ""
+
+
+def test_biarm_sweep_shows_a_bar_over_its_runs(tmp_path):
+    cfg = tmp_path / "sweep.yaml"
+    cfg.write_text(
+        "protocols:\n"
+        "  v1: {dqn: {batch_size: 8, learning_starts: 8}, eval: {episodes: 1}}\n"
+        "tasks: [CartPole-v1]\nvariants: [pnn]\nseeds: '0'\nepisodes_scale: 0.005\n"
+    )
+    args = ["biarm", "sweep", "--config", str(cfg), "--out", str(tmp_path / "sweep")]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, (res.output, res.exception)
+    assert "training runs (part 1)" in res.stderr and "1/1" in res.stderr and "ETA" in res.stderr
+    assert "trained 1 run(s)" in res.stdout
+    quiet = runner.invoke(app, [*args, "--quiet"])
+    assert quiet.exit_code == 0 and quiet.stderr == ""
