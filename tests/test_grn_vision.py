@@ -227,6 +227,7 @@ def test_smoke_evolution_with_the_default_preset_through_the_cli(tmp_path):
     assert res.exit_code == 0, (res.output, res.exception)
     saved = json.loads((out / "config.json").read_text())["config"]
     assert saved["sensors"]["encoder"] == "blob" and saved["dynamics"]["substeps"] == 10
+    assert saved["dynamics"]["restart"] is True and saved["sensors"]["proprio"] is False
     assert (out / "frontend.npz").is_file() and not (out / "encoder.pt").exists()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["episodes_run"] == 2

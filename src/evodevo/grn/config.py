@@ -56,6 +56,11 @@ class DynamicsConfig:
     substeps: int = doc(
         1, "Euler updates of the expression per control step (thesis: 1; SPEC §2.1 time scale)"
     )
+    restart: bool = doc(
+        False,
+        "develop the expression afresh from x0 on every control step (no memory between control "
+        "steps; thesis: false, x carries over)",
+    )
 
     def validate(self) -> None:
         _check_range("n_genes", self.n_genes, 1)
@@ -81,6 +86,11 @@ class SensorConfig:
     n_proprio: int = doc(4, "proprioceptive values read from info['proprio']")
     feature_dim: int = doc(128, "front-end output size: 128 for cnn (32 x 2 x 2), 4 for blob")
     blind: bool = doc(False, "replace the visual features by zeros (the blind-GRN control, §2.5)")
+    proprio: bool = doc(
+        True,
+        "the GRN reads the proprioceptive values (false: they are zeros in s; a front-end may "
+        "still use the gripper pose, as blob does for dx, dy)",
+    )
     vector_range: tuple[float, float] = doc(
         (-1.0, 1.0),
         "vector-observation envs: the Box bounds are mapped linearly onto this range "
@@ -361,12 +371,12 @@ class GrnConfig:
 
 
 VISION_PRESET: dict[str, Any] = {
-    "dynamics": {"dt": 0.1, "substeps": 10},
-    "sensors": {"encoder": "blob", "feature_dim": 4},
+    "dynamics": {"dt": 0.1, "substeps": 10, "restart": True},
+    "sensors": {"encoder": "blob", "feature_dim": 4, "proprio": False},
     "genome": {"ws_std": 1.0, "p_init": "identity"},
-    "mutation": {"p_weight": 0.5, "sigma": 0.2},
-    "evolution": {"generations": 10, "early_stop_success": 0.8, "retest_success": 0.7},
-    "evaluation": {"episodes": 6, "distance_weight": 1.0},
+    "mutation": {"p_weight": 0.5},
+    "evolution": {"early_stop_success": 0.8, "retest_success": 0.7},
+    "evaluation": {"distance_weight": 1.0},
 }
 """The default preset of ``evodevo grn evolve`` (issue 22): what differs from the thesis
 defaults (``configs/grn.yaml``). ``configs/grn_vision.yaml`` spells it out; a test checks both

@@ -343,7 +343,7 @@ class NeuromodGrnController(PlainGrnController):
         W_r = modulated_regulation(base.W_r[idx], m[:, NE], m[:, ACH], gam[:, NE], gam[:, ACH])
         theta = modulated_threshold(base.theta[idx], m[:, SHT], gam[:, SHT])
         delta = modulated_decay(base.delta[idx], m[:, DA], gam[:, DA])
-        x = state.x[idx]
+        x = self.start_expression(state.x[idx])
         # SPEC §2.1 substeps: the modulators move once per control step (Eq. 3.1's time scale),
         # the expression ``substeps`` times under them (1 = the plain Eq. 5.x step).
         for k in range(self.dyn.substeps):
