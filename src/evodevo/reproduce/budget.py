@@ -169,9 +169,11 @@ QUICK = {
         "variants": ["biarm", "pnn", "finetune"],
         "seeds": "0",
         "episodes_scale": 0.05,
-        # CartPole at 150 of its 400 episodes: enough for the default protocol to reach a
-        # greedy return >= 195 (issue 21); the other tasks at 0.05x only show they run
-        "task_episodes": {"CartPole-v1": 150},
+        # CartPole at 250 of its 400 episodes: under the default protocol PNN seed 0 validates
+        # at 192 after 125 episodes, 118 after 150 and 500 from 200 on (docs/results/
+        # biarm_sweep), so 250 leaves a margin for the greedy return >= 195 of issue 21; the
+        # other tasks at 0.05x only show they run
+        "task_episodes": {"CartPole-v1": 250},
         "eval_episodes": 3,
         "other_protocols": {},
     },
