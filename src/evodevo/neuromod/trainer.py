@@ -66,7 +66,7 @@ __all__ = [
 METRIC_FIELDS = ["task", "env_id", "episode", "return", "length", "epsilon", "lr", "step"]
 NEUROMOD_FIELDS = ["step", "task", *[f"s_{m}" for m in MODULE_NAMES], "n_task", "lr", "gate"]
 #: Summary keys that hold wall-clock measurements (excluded from reproducibility checks).
-TIMING_KEYS = ("us_per_step", "wall_seconds")
+TIMING_KEYS = ("us_per_step", "wall_seconds", "cpu_seconds")
 
 
 @dataclass(frozen=True)
@@ -423,6 +423,7 @@ def train(
     every = cfg.checkpoint_every
     hint = resume_hint(run.path)
     t_start = time.perf_counter()
+    cpu_start = time.process_time()  # this process only: robust to other jobs sharing cores
     with (
         CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
         CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
@@ -523,6 +524,7 @@ def train(
         "tasks": tasks,
         "final_states": agent.modules.states.tolist() if agent.modules is not None else None,
         "wall_seconds": time.perf_counter() - t_start,
+        "cpu_seconds": time.process_time() - cpu_start,
     }
     run.write_summary(summary)
     return summary
