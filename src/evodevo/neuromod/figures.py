@@ -1,7 +1,8 @@
 """Figures 3.3-3.5 drawn from saved run files only (SPEC §1.8, §6; STYLE.md point 2).
 
 * ``fig_3_3_learning_curves.png``: per task, training return per episode (moving average),
-  mean ± std over seeds, one line per variant.
+  mean ± std over seeds, one line per variant, one colour per variant in every panel, the
+  legend below the panels.
 * ``fig_3_4_ablation.png``: final return per task and variant, mean ± std over seeds.
 * ``fig_3_5_{env}.png``: for one modulated run, per task: the four module states, the
   effective learning rate, the context gate, and the 4x4 correlation of the states.
@@ -43,9 +44,18 @@ def learning_curves(
 ) -> str:
     """Fig. 3.3 from every run's ``metrics.csv``."""
     envs = [t["env_id"] for t in next(iter(next(iter(runs.values())).values()))["tasks"]]
-    fig, axes = plt.subplots(1, len(envs), figsize=(4.2 * len(envs), 3.4), squeeze=False)
-    for v in [v for v in _ORDER if v in runs] + [v for v in runs if v not in _ORDER]:
+    variants = [v for v in _ORDER if v in runs] + [v for v in runs if v not in _ORDER]
+    width = 4.2 * len(envs)
+    rows_of_legend = -(-len(variants) // max(1, int(width // 1.5)))  # about 1.5 in per entry
+    ncol = max(1, -(-len(variants) // rows_of_legend))  # the rows balanced
+    legend_h = 0.3 + 0.22 * rows_of_legend  # inches below the panels
+    fig, axes = plt.subplots(1, len(envs), figsize=(width, 3.4 + legend_h), squeeze=False)
+    colours = plt.get_cmap("tab10")
+    handles, labels = [], []
+    for k, v in enumerate(variants):
+        colour = colours(k % 10)
         per_task: dict[int, list[np.ndarray]] = {}
+        line = None
         for seed in runs[v]:
             rows = RunDir(_folder(root, v, seed), create=False).read_csv("metrics.csv")
             for i in range(len(envs)):
@@ -59,14 +69,27 @@ def learning_curves(
             mean, std = m.mean(0), m.std(0)
             ax = axes[0][i]
             xs = np.arange(n)
-            ax.plot(xs, mean, label=f"{v} (n={len(curves)})")
-            ax.fill_between(xs, mean - std, mean + std, alpha=0.2)
+            (line,) = ax.plot(xs, mean, color=colour, lw=1.2)
+            ax.fill_between(xs, mean - std, mean + std, color=colour, alpha=0.15, lw=0)
+        if line is not None:
+            handles.append(line)
+            labels.append(f"{v} (n={len(runs[v])})")
     for i, env in enumerate(envs):
         axes[0][i].set_title(env)
         axes[0][i].set_xlabel("episode")
     axes[0][0].set_ylabel(f"return ({window}-episode moving average)")
-    axes[0][-1].legend(fontsize=8)
-    fig.tight_layout()
+    # The legend sits below the panels, outside every axes, so it covers no curve.
+    fig.legend(
+        handles,
+        labels,
+        loc="lower center",
+        ncol=ncol,
+        fontsize=9,
+        frameon=False,
+        title="mean ± std over n seeds",
+        title_fontsize=9,
+    )
+    fig.tight_layout(rect=(0, legend_h / (3.4 + legend_h), 1, 1))
     name = "fig_3_3_learning_curves.png"
     fig.savefig(root / name, dpi=110)
     plt.close(fig)
