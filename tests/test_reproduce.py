@@ -420,7 +420,7 @@ def test_report_names_the_finished_biarm_runs_when_they_differ_from_the_budget(t
         (run / "summary.json").write_text(json.dumps(summary))
     (bdir / "table_3_2.md").write_text("## Table 3.2\n\n| x |\n|---|\n| 1 |\n")
     md = write_report(tmp_path, cfg).read_text()
-    assert "Finished runs: biarm [0, 3]." in md
+    assert "Finished runs: seeds 0, 3 for every variant (2 each)." in md
 
 
 def test_only_selects_steps_by_name_pattern(tmp_path):
@@ -478,3 +478,153 @@ def test_header_says_what_ran_this_time():
     )
     assert _this_time(90.0, 2) == "; 2 steps ran this time, in 1.5 min."
     assert _this_time(None, None) == "."
+
+
+TINY_ENVS = ("CartPole-v1", "Acrobot-v1", "MountainCar-v0", "LunarLander-v3")
+ABLATION_NAMES = ("no-da", "no-5ht", "no-ne", "no-ach")
+
+
+def _tiny_grid(bdir: Path, seeds: tuple[int, ...] = (0, 1, 2)) -> None:
+    """A finished BIARM grid as `biarm compare` leaves it: run folders with config.json (the
+    machine), summary.json and metrics.csv, 4 tasks x (biarm, pnn, 4 ablations) x seeds.
+
+    PNN's final returns are negative on LunarLander (-100, -50, 20), BIARM's 100 above them on
+    every seed, so a percentage of the PNN mean would be meaningless there.
+    """
+    from evodevo.runs import RunDir
+
+    for k, variant in enumerate(("biarm", "pnn", *ABLATION_NAMES)):
+        for seed in seeds:
+            run = RunDir(bdir / "runs" / f"{variant}__s{seed}")
+            run.write_config({"variant": variant, "seed": seed, "episodes_scale": 0.01}, "biarm")
+            tasks = []
+            for i, env in enumerate(TINY_ENVS):
+                base = (-100.0, -50.0, 20.0)[seed % 3] if env == "LunarLander-v3" else 50.0 + i
+                final = base + (100.0 if variant == "biarm" else 0.0) - (k if k > 1 else 0)
+                tasks.append(
+                    {
+                        "env_id": env,
+                        "episodes": 4 + i,
+                        "max_steps": 500,
+                        "initial_return": final,
+                        "final_return": final,
+                        "retention": 1.0,
+                        "returns_after": [final],
+                        "eval_returns_final": [final, final],
+                        "us_per_step": 100.0 + 10 * (variant == "biarm"),
+                    }  # fmt: skip
+                )
+            run.write_summary(
+                {
+                    "variant": variant,
+                    "seed": seed,
+                    "module_learning": "fixed",
+                    "adapter_dim": 32,
+                    "eval_seeds": [10000, 10001],
+                    "tasks": tasks,
+                }  # fmt: skip
+            )
+            metrics = [
+                {"task": i, "env_id": env, "episode": e, "return": float(e + seed), "step": e}
+                for i, env in enumerate(TINY_ENVS)
+                for e in range(30)
+            ]
+            run.write_csv("metrics.csv", metrics)
+
+
+def _tiny_cfg() -> ReproduceConfig:
+    return from_dict(
+        ReproduceConfig,
+        {
+            "name": "tiny",
+            "biarm": {
+                "seeds": "0-2",
+                "variants": ["biarm", "pnn", *ABLATION_NAMES],
+                "tasks": list(TINY_ENVS),
+                "eval_episodes": 2,
+            },
+            "grn": {"enabled": False},
+            "kuka": {"enabled": False},
+        },
+    )
+
+
+def test_report_from_a_tiny_grid_lists_every_ablation_pair_and_states_its_budget_once(tmp_path):
+    cfg = _tiny_cfg()
+    _tiny_grid(tmp_path / "biarm")
+    md = write_report(tmp_path, cfg).read_text()
+    section = md.split("## BIARM (thesis Chapter 3)")[1]
+    # budget, seeds and machine once, at the top; no Python dict or list of seeds anywhere
+    assert section.count("Budget:") == 1 and section.count("Machine:") == 1
+    top = section.split("###")[0]
+    assert "seeds 0-2 (3 per variant)" in top and "Machine: " in top and "CPUs" in top
+    assert "(seeds 10000..10001)" in top and "module learning `fixed`" in top
+    assert "{'" not in section and "[0, 1, 2]" not in section
+    # each table: a heading, then one line of caption, then the table
+    lines = section.splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("#### Table") or line.startswith("#### Extended"):
+            assert lines[i + 1] == "" and lines[i + 2] and not lines[i + 2].startswith("|")
+            assert lines[i + 3] == "" and lines[i + 4].startswith("| ")
+    # Table 3.2: BIARM - PNN in return, paired by seed (+100 on 3 of 3 seeds: exact p = 2/8)
+    t32 = next(line for line in lines if line.startswith("| LunarLander-v3 | -43.33"))
+    assert "| +100.00 (p = 0.25; higher on 3/3 seeds) |" in t32
+    assert "BIARM − PNN (ours, paired by seed)" in section
+    assert "Improvement (thesis, % of |PNN|, as printed)" in section
+    assert "+330.77 %" not in section  # 100 / |-43.33|: the old percentage of a negative mean
+    # Table 3.3 says what it measured and cites the benchmark beside it
+    assert "µs per training step, measured while training" in section
+    assert "sharing the machine's cores" in section and "| 1.11-1.17 |" in section
+    # every (task, ablation) pair in the ablation bullet, which ends in a full stop
+    bullet = next(line for line in lines if line.startswith("- **Ablations**"))
+    for env in TINY_ENVS:
+        for a in ABLATION_NAMES:
+            per_task = bullet.split(f"{env}: ")[1].split(";")[0]
+            assert f" {a} " in f" {per_task}", (env, a)
+    assert "all 16 (task, ablation) pairs" in bullet and bullet.endswith(").")
+    # Table 3.5 holds the thesis' two models only; every variant is in the extended table
+    t35 = section.split("#### Table 3.5")[1].split("####")[0]
+    assert "| biarm |" in t35 and "| pnn |" in t35 and "no-da" not in t35
+    ext = section.split("#### Extended")[1].split("####")[0]
+    assert all(f"| {a} | LunarLander-v3 |" in ext for a in ABLATION_NAMES)
+
+
+def test_biarm_compare_report_states_its_budget_once(tmp_path):
+    from evodevo.neuromod.compare import write_report as compare_report
+
+    _tiny_grid(tmp_path)
+    md = compare_report(tmp_path, figures=False).read_text()
+    assert md.count("Budget:") == 1 and md.count("Machine:") == 1 and "{'" not in md
+    assert "seeds 0-2 for every variant (3 each)" in md
+    # a table file read on its own still names its budget, once, under the table
+    t32 = (tmp_path / "table_3_2.md").read_text()
+    assert t32.count("Budget:") == 1 and t32.index("| Environment") < t32.index("Budget:")
+
+
+def test_learning_curve_legend_covers_no_panel(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from evodevo.neuromod.compare import collect
+    from evodevo.neuromod.figures import learning_curves
+
+    _tiny_grid(tmp_path, seeds=(0,))
+    captured = []
+    real_close = plt.close
+    try:
+        plt.close = captured.append  # keep the figure to inspect it
+        name = learning_curves(tmp_path, collect(tmp_path), window=5)
+    finally:
+        plt.close = real_close
+    fig = captured[0]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    (legend,) = fig.legends
+    box = legend.get_window_extent(renderer)
+    assert len(legend.get_texts()) == 6
+    for ax in fig.axes:
+        assert not box.overlaps(ax.get_window_extent(renderer)), ax.get_title()
+    assert (tmp_path / name).stat().st_size > 1000
+    real_close(fig)

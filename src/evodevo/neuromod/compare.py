@@ -38,6 +38,17 @@ __all__ = [
     "collect",
     "collect_dirs",
     "write_report",
+    "report_tables",
+    "table_markdown",
+    "budget_paragraph",
+    "run_facts",
+    "seeds_sentence",
+    "format_seeds",
+    "paired_difference",
+    "finals_by_seed",
+    "fmt_difference",
+    "STATS_NOTE",
+    "BENCHMARK_OVERHEAD",
     "write_continual_table",
     "table_continual",
     "continual_records",
@@ -160,52 +171,174 @@ def _csv(header: list[str], rows: list[list[Any]]) -> str:
     return buf.getvalue()
 
 
-def _budget(out: Path, runs: dict[str, dict[int, dict[str, Any]]]) -> str:
-    """One paragraph naming budget, seeds, evaluation and machine (SPEC §6)."""
+#: What every BIARM table's intervals and tests are (SPEC §6), stated once per report.
+STATS_NOTE = (
+    "Mean ± std over seeds; intervals are 95 % bootstrap intervals of the mean over seeds "
+    "(10,000 resamples); paired tests are exact sign-flip tests over seeds."
+)
+
+#: BIARM / PNN time per training step measured by ``benchmarks/biarm_overhead.py --json`` (one
+#: process, each agent in its own interleaved pass, process CPU time), per task the range over
+#: the four runs in docs/results/biarm.md, "Speed", 2026-12-02 (third session); the whole
+#: sequence measured 1.114-1.141 there. Cited beside Table 3.3, whose ratios are measured while
+#: training, several runs sharing the machine's cores.
+BENCHMARK_OVERHEAD: dict[str, tuple[float, float]] = {
+    "CartPole-v1": (1.03, 1.06),
+    "Acrobot-v1": (1.10, 1.21),
+    "MountainCar-v0": (1.15, 1.18),
+    "LunarLander-v3": (1.11, 1.17),
+}
+BENCHMARK_SOURCE = "`benchmarks/biarm_overhead.py`, docs/results/biarm.md (Speed)"
+
+
+def format_seeds(seeds: Sequence[int]) -> str:
+    """Seeds as compact ranges: ``[0, 1, 2, 3, 4, 7]`` -> ``"0-4, 7"``."""
+    parts: list[str] = []
+    ordered = sorted(set(int(s) for s in seeds))
+    i = 0
+    while i < len(ordered):
+        j = i
+        while j + 1 < len(ordered) and ordered[j + 1] == ordered[j] + 1:
+            j += 1
+        parts.append(str(ordered[i]) if j == i else f"{ordered[i]}-{ordered[j]}")
+        i = j + 1
+    return ", ".join(parts)
+
+
+def seeds_sentence(runs: Mapping[str, Mapping[int, Any]]) -> str:
+    """The finished seeds of every variant, variants with the same seeds grouped."""
+    groups: dict[str, list[str]] = {}
+    for v in _variant_order(runs):
+        groups.setdefault(format_seeds(list(runs[v])), []).append(v)
+    if len(groups) == 1:
+        ((seeds, variants),) = groups.items()
+        return f"seeds {seeds} for every variant ({len(runs[variants[0]])} each)"
+    return "seeds " + "; ".join(f"{s} ({', '.join(vs)})" for s, vs in groups.items())
+
+
+def run_facts(
+    runs: Mapping[str, Mapping[int, Mapping[str, Any]]], folder: Path | None = None
+) -> dict[str, str]:
+    """What a grid's runs share besides their seeds, as text: ``episodes`` per task,
+    ``model`` (module learning, adapter width), ``evaluation`` and ``machine``.
+
+    Read from the first run's ``summary.json`` and, when ``folder`` (the grid folder) holds its
+    ``config.json``, the episodes scale and the machine; a fact not recorded is left out.
+    """
     variant = next(iter(runs))
-    seed = next(iter(runs[variant]))
-    folder = out / "runs" / run_dir_name(variant, seed)
-    saved = RunDir(folder, create=False).read_config()
-    cfg = saved["config"]
-    machine = saved.get("machine", {})
+    seed = min(runs[variant])
     s = runs[variant][seed]
-    eps = ", ".join(f"{t['env_id']} {t['episodes']}" for t in s["tasks"])
-    seeds = {v: sorted(r) for v, r in runs.items()}
-    return (
-        f"Budget: episodes per task {eps} (episodes_scale {cfg.get('episodes_scale')}); "
-        f"module learning `{s.get('module_learning')}`, adapter_dim {s.get('adapter_dim')}; "
-        f"{len(s['eval_seeds'])} greedy evaluation episodes with seeds "
-        f"{s['eval_seeds'][0]}..{s['eval_seeds'][-1]}; seeds per variant {seeds}. "
-        f"Machine: {machine.get('processor')}, {machine.get('cpus')} CPUs, "
-        f"{machine.get('platform')}. Intervals: 95 % bootstrap over seeds (10,000 resamples).\n"
-    )
+    saved: dict[str, Any] = {}
+    if folder is not None:
+        cfg_path = folder / "runs" / run_dir_name(variant, seed) / "config.json"
+        if cfg_path.is_file():
+            saved = read_json(cfg_path)
+    facts = {
+        "episodes": "episodes per task "
+        + ", ".join(f"{t['env_id']} {t['episodes']}" for t in s["tasks"])
+    }
+    scale = saved.get("config", {}).get("episodes_scale")
+    if scale is not None:
+        facts["episodes"] += f" (episodes_scale {scale})"
+    if s.get("module_learning") is not None:
+        facts["model"] = (
+            f"module learning `{s.get('module_learning')}`, adapter_dim {s.get('adapter_dim')}"
+        )
+    ev = s.get("eval_seeds")
+    if ev:
+        facts["evaluation"] = (
+            f"{len(ev)} greedy evaluation episodes per task (seeds {ev[0]}..{ev[-1]})"
+        )
+    m = saved.get("machine")
+    if m:
+        facts["machine"] = f"{m.get('processor')}, {m.get('cpus')} CPUs, {m.get('platform')}"
+    return facts
+
+
+def budget_paragraph(
+    runs: Mapping[str, Mapping[int, Mapping[str, Any]]], folder: Path | None = None
+) -> str:
+    """Budget, seeds, evaluation and machine of a grid in one paragraph (SPEC §6)."""
+    f = run_facts(runs, folder)
+    parts = [f[k] for k in ("episodes", "model", "evaluation") if k in f]
+    text = "Budget: " + "; ".join([*parts, seeds_sentence(runs)]) + "."
+    if "machine" in f:
+        text += f" Machine: {f['machine']}."
+    return text + " " + STATS_NOTE
 
 
 # ---------------------------------------------------------------------------- tables
+def paired_difference(
+    a: Mapping[int, float], b: Mapping[int, float]
+) -> tuple[float, float, int, int] | None:
+    """``a − b`` paired by seed over the seeds both have: (mean difference, exact two-sided
+    sign-flip p, seeds where ``a`` is higher, shared seeds); None without a shared seed.
+
+    Seeds are the unit (SPEC §6); with n shared seeds p cannot go below ``2 / 2**n``.
+    """
+    from evodevo.stats import permutation_test
+
+    seeds = sorted(set(a) & set(b))
+    if not seeds:
+        return None
+    x = np.array([a[s] for s in seeds], dtype=float)
+    y = np.array([b[s] for s in seeds], dtype=float)
+    p = 1.0 if np.array_equal(x, y) else permutation_test(x, y, paired=True)
+    return float((x - y).mean()), float(p), int((x > y).sum()), len(seeds)
+
+
+def finals_by_seed(runs: Mapping[int, Mapping[str, Any]], env: str) -> dict[int, float]:
+    """Seed -> final greedy return on ``env`` of one variant's runs."""
+    out = {}
+    for seed, s in runs.items():
+        for t in s["tasks"]:
+            if t["env_id"] == env:
+                out[int(seed)] = float(t["final_return"])
+    return out
+
+
+def fmt_difference(pair: tuple[float, float, int, int] | None) -> str:
+    """``+301.3 (p = 0.062; higher on 5/5 seeds)`` or ``—`` without a shared seed."""
+    if pair is None:
+        return "—"
+    d, p, k, n = pair
+    return f"{d:+.2f} (p = {p:.2g}; higher on {k}/{n} seeds)"
+
+
 def table_3_2(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
-    """PNN vs BIARM final returns with improvement, thesis beside."""
+    """PNN vs BIARM final returns, BIARM − PNN paired by seed, thesis beside.
+
+    Ours is a difference in return (mean over seeds of the per-seed difference, exact sign-flip
+    p, seeds where BIARM is higher), not a percentage of a PNN mean that may be negative; the
+    thesis' improvement (``(BIARM − PNN) / |PNN|`` of its means, SPEC §1.7) is shown as printed.
+    """
     header = [
         "Environment",
         "PNN (ours)",
         "BIARM (ours)",
-        "Improvement (ours)",
+        "BIARM − PNN (ours, paired by seed)",
         "PNN (thesis)",
         "BIARM (thesis)",
-        "Improvement (thesis)",
+        "BIARM − PNN (thesis means)",
+        "Improvement (thesis, % of |PNN|, as printed)",
     ]
     rows = []
     for env in _env_ids(runs):
         p = summarise(_values(runs.get("pnn", {}), env, "final_return"))
         b = summarise(_values(runs.get("biarm", {}), env, "final_return"))
+        pair = paired_difference(
+            finals_by_seed(runs.get("biarm", {}), env), finals_by_seed(runs.get("pnn", {}), env)
+        )
         th = TABLE_3_2.get(env)
         rows.append(
             [
                 env,
                 p.fmt(2) + f" (n={p.n})" if p.n else "—",
                 b.fmt(2) + f" (n={b.n})" if b.n else "—",
-                f"{improvement(b.mean, p.mean):+.2f} %" if p.n and b.n else "—",
+                fmt_difference(pair),
                 _pm(*th["pnn"]) if th else "—",
                 _pm(*th["biarm"]) if th else "—",
+                f"{th['biarm'][0] - th['pnn'][0]:+.2f}" if th else "—",
                 f"{improvement(th['biarm'][0], th['pnn'][0]):+.2f} %" if th else "—",
             ]
         )
@@ -213,18 +346,21 @@ def table_3_2(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], li
 
 
 def table_3_3(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
-    """Median time per training step (µs), mean over seeds, and the ratio to PNN."""
+    """Median µs per training step measured while training (mean over seeds), the ratio to
+    PNN, the benchmark's BIARM / PNN (:data:`BENCHMARK_OVERHEAD`) and the thesis' times."""
     variants = [v for v in ("pnn", "biarm", *ABLATIONS) if v in runs]
-    header = ["Environment", *[f"{v} µs/step" for v in variants]]
+    header = ["Environment", *[f"{v} µs" for v in variants]]
     if "pnn" in runs:
         header += [f"{v}/pnn" for v in variants if v != "pnn"]
-    header += ["thesis PNN / BIARM ms", "thesis overhead"]
+    header += ["biarm/pnn, benchmark", "thesis PNN / BIARM ms", "thesis overhead"]
     rows = []
     for env in _env_ids(runs):
         means = {v: float(np.nanmean(_values(runs[v], env, "us_per_step"))) for v in variants}
         row = [env, *[f"{means[v]:.0f}" for v in variants]]
         if "pnn" in runs:
             row += [f"{means[v] / means['pnn']:.3f}" for v in variants if v != "pnn"]
+        bench = BENCHMARK_OVERHEAD.get(env)
+        row.append(f"{bench[0]:.2f}-{bench[1]:.2f}" if bench else "—")
         th = TABLE_3_3_MS.get(env)
         row += (
             [f"{th[0]:.2f} / {th[1]:.2f}", f"+{100 * (th[1] / th[0] - 1):.0f} %"]
@@ -255,7 +391,8 @@ def table_3_4(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], li
 
 
 def table_3_5(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], list[list[str]]]:
-    """Initial vs final returns and retention (of the means), thesis beside."""
+    """Initial vs final returns and retention (of the means) of the models the thesis' Table 3.5
+    reports (BIARM and PNN), thesis beside; every variant's is in :func:`table_continual`."""
     header = [
         "Environment",
         "Model",
@@ -267,7 +404,7 @@ def table_3_5(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], li
         "Retention (thesis)",
     ]
     rows = []
-    variants = [v for v in ("biarm", "pnn", *ABLATIONS) if v in runs]
+    variants = [v for v in ("biarm", "pnn") if v in runs]
     for env in _env_ids(runs):
         for v in variants:
             ini = summarise(_values(runs[v], env, "initial_return"))
@@ -418,35 +555,83 @@ def continual_csv(runs: dict[str, dict[int, dict[str, Any]]]) -> str:
     return _csv(header, [[r[k] for k in header] for r in records])
 
 
+#: name -> (title, one-line caption, table function) of every table a grid's report holds.
 TABLES = {
-    "table_3_2": ("Table 3.2 — final return, PNN vs BIARM", table_3_2),
-    "table_3_3": ("Table 3.3 — time per training step", table_3_3),
-    "table_3_4": ("Table 3.4 — ablations (final return)", table_3_4),
-    "table_3_5": ("Table 3.5 — initial vs final return and retention", table_3_5),
+    "table_3_2": (
+        "Table 3.2 — final return, PNN vs BIARM",
+        "Final greedy return per task, mean ± std [95 % CI] over seeds. BIARM − PNN is a "
+        "difference in return, the mean over seeds of the per-seed difference, with its exact "
+        "sign-flip p and the seeds on which BIARM is higher; the thesis' improvement is a "
+        "percentage of its PNN mean (SPEC §1.7), shown as printed.",
+        table_3_2,
+    ),
+    "table_3_3": (
+        "Table 3.3 — µs per training step, measured while training",
+        "Median wall-clock µs per training step inside each training run, mean over seeds, "
+        "with several runs of the grid sharing the machine's cores at once: these ratios carry "
+        "that contention. The method's overhead is the benchmark's BIARM / PNN (one process, "
+        f"interleaved, process CPU time; per-task range over its runs, {BENCHMARK_SOURCE}).",
+        table_3_3,
+    ),
+    "table_3_4": (
+        "Table 3.4 — ablations (final return)",
+        "Final greedy return per task of the full BIARM and each module ablation, mean ± std "
+        'over seeds; the paired differences are under "where we differ".',
+        table_3_4,
+    ),
+    "table_3_5": (
+        "Table 3.5 — initial vs final return and retention, the thesis' models",
+        "Greedy return after each task's own training (initial) and after the whole sequence "
+        "(final), mean ± std over seeds, and retention of the means (SPEC §1.7), for the two "
+        "models the thesis reports; every variant's is in the extended table.",
+        table_3_5,
+    ),
     "table_continual": (
         "Extended Tables 3.2/3.5 — every variant: final return, retention, forgetting (Eq. 1.4)",
+        "Every variant found: final and initial greedy return, retention of the seed means, and "
+        "forgetting (Eq. 1.4: max over k of Acc(i,k) − Acc(i,T), per seed, then mean ± std); "
+        "sb3-dqn trains a separate model per task, so it cannot forget.",
         table_continual,
     ),
 }
 
 
-def write_report(out: str | Path, figures: bool = True) -> Path:
-    """Write ``table_3_*.md/.csv``, ``report.md`` and (optionally) the figures into ``out``."""
-    root = Path(out)
-    runs = collect(root)
-    budget = _budget(root, runs)
-    parts = ["# BIARM comparison\n", budget]
-    for name, (title, fn) in TABLES.items():
-        if name == "table_3_2" and not ({"pnn", "biarm"} & set(runs)):
+def report_tables(
+    runs: dict[str, dict[int, dict[str, Any]]],
+) -> list[tuple[str, str, str, list[str], list[list[str]]]]:
+    """``(name, title, caption, header, rows)`` of every table the grid's runs can fill."""
+    out = []
+    for name, (title, caption, fn) in TABLES.items():
+        if name in ("table_3_2", "table_3_5") and not ({"pnn", "biarm"} & set(runs)):
             continue
         if name == "table_3_4" and not (set(ABLATIONS) & set(runs)):
             continue
         header, rows = fn(runs)
-        md = f"## {title}\n\n{budget}\n" + _md_table(header, rows)
-        atomic_write_text(root / f"{name}.md", md)
+        out.append((name, title, caption, header, rows))
+    return out
+
+
+def table_markdown(caption: str, header: list[str], rows: list[list[str]]) -> str:
+    """A table under its one-line caption."""
+    return f"{caption}\n\n" + _md_table(header, rows)
+
+
+def write_report(out: str | Path, figures: bool = True) -> Path:
+    """Write ``table_3_*.md/.csv``, ``report.md`` and (optionally) the figures into ``out``.
+
+    ``report.md`` states the budget, seeds and machine once at its top and gives each table a
+    one-line caption; each ``table_*.md`` file, read on its own, carries the budget too.
+    """
+    root = Path(out)
+    runs = collect(root)
+    budget = budget_paragraph(runs, root)
+    parts = ["# BIARM comparison\n", budget + "\n"]
+    for name, title, caption, header, rows in report_tables(runs):
+        body = table_markdown(caption, header, rows)
+        atomic_write_text(root / f"{name}.md", f"## {title}\n\n{body}\n{budget}\n")
         text = continual_csv(runs) if name == "table_continual" else _csv(header, rows)
         atomic_write_text(root / f"{name}.csv", text)
-        parts.append(f"## {title}\n\n" + _md_table(header, rows))
+        parts.append(f"## {title}\n\n{body}")
     if figures:
         from evodevo.neuromod.figures import draw_all
 

@@ -17,7 +17,15 @@ from evodevo.grn.ablation_pooling import (
     pooled_ablations_markdown,
     read_ablation_tables,
 )
-from evodevo.neuromod.compare import collect
+from evodevo.neuromod.compare import (
+    STATS_NOTE,
+    collect,
+    format_seeds,
+    report_tables,
+    run_facts,
+    seeds_sentence,
+    table_markdown,
+)
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.biarm_protocols import grids, protocol_table
 from evodevo.reproduce.budget import ReproduceConfig, preset
@@ -36,6 +44,8 @@ __all__ = [
     "markdown_to_html",
     "THESIS_GRN",
 ]
+
+Runs = dict[str, dict[int, dict[str, Any]]]
 
 #: Thesis Chapter 4 numbers (Table 4.2 and Section 4.6.2): test success on *training* objects
 #: over 40 episodes, the noisy success and the retention.
@@ -57,74 +67,117 @@ def _pooled(results: list[dict[str, Any]], key: str | None = None) -> tuple[int,
     return k, n
 
 
+def _grid_runs(out: Path, cfg: ReproduceConfig) -> list[tuple[str, str, Runs]]:
+    """``(folder, protocol, runs)`` of every BIARM grid of the budget (runs empty if none
+    finished)."""
+    found = []
+    for folder, protocol in grids(cfg):
+        try:
+            runs = collect(out / folder)
+        except EvodevoError:  # no finished run (yet)
+            runs = {}
+        found.append((folder, protocol, runs))
+    return found
+
+
+_FACTS = ("model", "evaluation", "machine")
+
+
+def _split_facts(
+    out: Path, found: list[tuple[str, str, Runs]]
+) -> tuple[dict[str, str], dict[str, dict[str, str]]]:
+    """The model, evaluation and machine facts every grid with runs shares (stated once at the
+    top), and per grid folder those in which the grids differ (stated under that grid)."""
+    per = {folder: run_facts(runs, out / folder) for folder, _, runs in found if runs}
+    common: dict[str, str] = {}
+    own: dict[str, dict[str, str]] = {folder: {} for folder in per}
+    for key in _FACTS:
+        values = {folder: f[key] for folder, f in per.items() if key in f}
+        if not values:
+            continue
+        if len(set(values.values())) == 1 and len(values) == len(per):
+            common[key] = next(iter(values.values()))
+        else:
+            for folder, value in values.items():
+                own[folder][key] = value
+    return common, own
+
+
+def _facts_text(facts: dict[str, str]) -> str:
+    """``model; evaluation. Machine: ...`` of the facts given, in that order."""
+    head = "; ".join(facts[k] for k in ("model", "evaluation") if k in facts)
+    machine = f"Machine: {facts['machine']}." if "machine" in facts else ""
+    return " ".join(x for x in ((head + ".") if head else "", machine) if x)
+
+
 def biarm_section(out: Path, cfg: ReproduceConfig) -> list[str]:
-    """Every BIARM grid of the budget (one per DQN protocol, SPEC §1.6), side by side first."""
+    """Every BIARM grid of the budget (one per DQN protocol, SPEC §1.6), side by side first.
+
+    Budget, seeds and machine are stated once, at the top (a grid whose model, evaluation or
+    machine differs from the others says so under its heading); each table has a one-line
+    caption.
+    """
     b = cfg.biarm
+    found = _grid_runs(out, cfg)
+    common, own = _split_facts(out, found)
     episodes = f"episodes × {b.episodes_scale:g} of the thesis' (400/500/800/800)" + (
         "".join(f", {env} {n}" for env, n in b.task_episodes.items())
     )
+    seeds = parse_seeds(b.seeds)
+    if "evaluation" not in common:
+        common = {"evaluation": f"{b.eval_episodes} greedy evaluation episodes per task"} | common
     lines = [
         "## BIARM (thesis Chapter 3)",
         "",
         f"Budget: tasks {', '.join(b.tasks)}; {episodes}; variants {', '.join(b.variants)}; "
-        f"seeds {b.seeds} ({len(parse_seeds(b.seeds))}); {b.eval_episodes} greedy evaluation "
-        "episodes per task with fixed seeds. Thesis numbers are in their own column. DQN "
-        "protocols (SPEC §1.6): " + "; ".join(f"`{p}` in `{f}/`" for f, p in grids(cfg)) + ".",
+        f"seeds {format_seeds(seeds)} ({len(seeds)} per variant); "
+        + _facts_text(common)
+        + f" {STATS_NOTE} Thesis numbers are in their own columns. DQN protocols (SPEC §1.6): "
+        + "; ".join(f"`{p}` in `{f}/`" for f, p in grids(cfg))
+        + ".",
         "",
     ]
     lines += protocol_table(out, cfg)
-    for folder, protocol in grids(cfg):
-        lines += _biarm_grid(out, cfg, folder, protocol)
+    for folder, protocol, runs in found:
+        lines += _biarm_grid(out, cfg, folder, protocol, runs, own.get(folder, {}))
     return lines
 
 
-def _biarm_grid(out: Path, cfg: ReproduceConfig, folder: str, protocol: str) -> list[str]:
-    """The tables written by ``evodevo biarm compare`` (3.2-3.5) of one grid and its figures."""
+def _biarm_grid(
+    out: Path,
+    cfg: ReproduceConfig,
+    folder: str,
+    protocol: str,
+    runs: Runs,
+    own_facts: dict[str, str] | None = None,
+) -> list[str]:
+    """Tables 3.2-3.5 and the extended table of one grid, computed from its saved runs, its
+    differences from the thesis and its figures; ``own_facts``: the model, evaluation or
+    machine facts in which this grid differs from the others."""
     bdir = out / folder
     b = cfg.biarm
     lines = [f"### BIARM under the `{protocol}` protocol (`{folder}/`)", ""]
-    try:
-        runs = collect(bdir)
-    except EvodevoError:  # no finished run (yet)
-        runs = {}
+    if not runs:
+        return lines + ["(no BIARM tables: the BIARM part was not run or did not finish)", ""]
+    if own_facts:
+        differ = "; ".join(f"this grid's {k}: {v}" for k, v in own_facts.items())
+        lines += [differ[0].upper() + differ[1:] + ".", ""]
     budget_seeds = parse_seeds(b.seeds)
     if any(sorted(seeds) != budget_seeds for seeds in runs.values()):
-        per = "; ".join(f"{v} {sorted(seeds)}" for v, seeds in sorted(runs.items()))
         lines += [
-            f"The tables use every finished run, which differs from the budget's seeds {b.seeds} "
-            f"for some variants. Finished runs: {per}.",
+            f"The tables use every finished run, which differs from the budget's seeds "
+            f"{format_seeds(budget_seeds)} for some variants. Finished runs: "
+            f"{seeds_sentence(runs)}.",
             "",
         ]
-    titles = {
-        "table_3_2": "Table 3.2: final return, PNN vs BIARM",
-        "table_3_3": "Table 3.3: time per training step",
-        "table_3_4": "Table 3.4: ablations",
-        "table_3_5": "Table 3.5: initial vs final return, retention",
-        "table_continual": "Extended Tables 3.2/3.5: every variant, retention and forgetting (Eq. 1.4)",
-    }
-    found = False
-    for name, title in titles.items():
-        p = bdir / f"{name}.md"
-        if p.is_file():
-            found = True
-            lines += [f"#### {title}", "", _drop_heading(p.read_text()), ""]
-    if not found:
-        lines += ["(no BIARM tables: the BIARM part was not run or did not finish)", ""]
-        return lines
+    for _name, title, caption, header, rows in report_tables(dict(runs)):
+        lines += [f"#### {title}", "", table_markdown(caption, header, rows).strip(), ""]
     lines += ["#### Where we differ and why", ""]
-    lines += biarm_differences(runs or collect(bdir), b.episodes_scale)
+    lines += biarm_differences(runs, b.episodes_scale)
     figs = sorted(bdir.glob("*.png"))
     if figs:
         lines += ["#### Figures", ""] + [f"![{f.stem}]({f.relative_to(out)})" for f in figs] + [""]
     return lines
-
-
-def _drop_heading(md: str) -> str:
-    """A sub-command's Markdown without its own leading ``#`` heading (the report has one)."""
-    lines = md.strip().splitlines()
-    while lines and (lines[0].startswith("#") or not lines[0].strip()):
-        lines.pop(0)
-    return "\n".join(lines)
 
 
 def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
