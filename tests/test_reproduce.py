@@ -566,11 +566,16 @@ def test_report_from_a_tiny_grid_lists_every_ablation_pair_and_states_its_budget
         if line.startswith("#### Table") or line.startswith("#### Extended"):
             assert lines[i + 1] == "" and lines[i + 2] and not lines[i + 2].startswith("|")
             assert lines[i + 3] == "" and lines[i + 4].startswith("| ")
+            table = [r for r in lines[i + 4 :] if r.startswith("|")]
+            table = table[: next((j for j, r in enumerate(lines[i + 4 :]) if not r), None)]
+            assert len({r.count("|") for r in table}) == 1, line  # no stray "|" in a cell
     # Table 3.2: BIARM - PNN in return, paired by seed (+100 on 3 of 3 seeds: exact p = 2/8)
     t32 = next(line for line in lines if line.startswith("| LunarLander-v3 | -43.33"))
+    header = next(line for line in lines if line.startswith("| Environment | PNN (ours)"))
+    assert t32.count("|") == header.count("|") == 9  # 8 columns: no stray "|" in a cell
     assert "| +100.00 (p = 0.25; higher on 3/3 seeds) |" in t32
     assert "BIARM − PNN (ours, paired by seed)" in section
-    assert "Improvement (thesis, % of |PNN|, as printed)" in section
+    assert "Improvement (thesis, as printed: % of abs(PNN))" in section
     assert "+330.77 %" not in section  # 100 / |-43.33|: the old percentage of a negative mean
     # Table 3.3 says what it measured and cites the benchmark beside it
     assert "µs per training step, measured while training" in section

@@ -320,7 +320,7 @@ def table_3_2(runs: dict[str, dict[int, dict[str, Any]]]) -> tuple[list[str], li
         "PNN (thesis)",
         "BIARM (thesis)",
         "BIARM − PNN (thesis means)",
-        "Improvement (thesis, % of |PNN|, as printed)",
+        "Improvement (thesis, as printed: % of abs(PNN))",
     ]
     rows = []
     for env in _env_ids(runs):
