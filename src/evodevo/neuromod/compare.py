@@ -576,7 +576,7 @@ TABLES = {
     "table_3_4": (
         "Table 3.4 — ablations (final return)",
         "Final greedy return per task of the full BIARM and each module ablation, mean ± std "
-        'over seeds; the paired differences are under "where we differ".',
+        "over seeds, the thesis' Table 3.4 beside.",
         table_3_4,
     ),
     "table_3_5": (
