@@ -76,11 +76,54 @@ def main() -> None:
             print(f"| {name} | {fmt(sum(e), len(e))} | | | |")
     print()
     cols = list(grn)
-    print("| GRN seed − policy, points (exact McNemar p) | " + " | ".join(f"seed {s}" for s in cols) + " |")
+    print(
+        "| GRN seed − policy, points (exact McNemar p) | "
+        + " | ".join(f"seed {s}" for s in cols)
+        + " |"
+    )
     print("|---|" + "---|" * len(cols))
     for name, e in {**{f"blind GRN seed {s}": b for s, b in blind.items()}, **refs}.items():
         print(f"| {name} | " + " | ".join(pfmt(paired(grn[s], e)) for s in cols) + " |")
 
 
+def second_preset() -> None:
+    """The second vision preset (restart, proprioception off; ``vision2_s*``), 2026-12-04."""
+    base = {
+        "constant turn": successes(BASE, "turn"),
+        "scripted image-only pipeline": successes(BASE, "scripted"),
+        "all-zero": successes(BASE, "zero"),
+        "uniform random": successes(BASE, "random"),
+        "first vision preset, seed 0": successes(
+            HERE / "vision_s0" / "eval_test_0.03_episodes.csv", "genome"
+        ),
+    }
+    runs = sorted(HERE.glob("vision2_s*"))
+    if not runs:
+        return
+    print()
+    print("| second vision preset | clean [Wilson 95 %] | noise 0.03 | training episodes | wall |")
+    print("|---|---|---|---|---|")
+    got: dict[str, list[int]] = {}
+    for d in runs:
+        s = d.name.rsplit("_s", 1)[1]
+        ev = d / "eval_test_0.03_episodes.csv"
+        clean, noisy = successes(ev, "genome"), successes(ev, "genome_noisy")
+        if clean is None:
+            continue
+        got[s] = clean
+        summ = json.loads((d / "summary.json").read_text())
+        nz = fmt(sum(noisy), len(noisy)) if noisy else "—"
+        print(
+            f"| seed {s} | {fmt(sum(clean), len(clean))} | {nz} | {summ['episodes_run']} | "
+            f"{summ['wall_s'] / 60:.1f} min |"
+        )
+    print()
+    print("| second preset − policy, points (exact McNemar p) | " + " | ".join(got) + " |")
+    print("|---|" + "---|" * len(got))
+    for name, e in base.items():
+        print(f"| {name} | " + " | ".join(pfmt(paired(got[s], e)) for s in got) + " |")
+
+
 if __name__ == "__main__":
     main()
+    second_preset()
