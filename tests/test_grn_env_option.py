@@ -33,6 +33,7 @@ def test_env_option_sizes_from_spaces(tmp_path, env_id, dim):
     cfg = read_json(out / "config.json")["config"]
     assert cfg["env"] == {"id": env_id, "kwargs": {}}
     assert (cfg["sensors"]["n_visual"], cfg["sensors"]["n_proprio"]) == (0, dim)
+    assert cfg["sensors"]["proprio"] is True  # the default preset hides proprioception, not this
     res = _invoke("grn", "evaluate", out, "--objects", "train", "--test-episodes", 1,
                   "--no-baselines", "--json", "--quiet")  # fmt: skip
     assert json.loads(res.stdout.strip().splitlines()[-1])["episodes"] == 1

@@ -113,6 +113,7 @@ def _env_overrides(env_id: str, cfg: Any) -> dict[str, Any]:
         out["sensors"] = {
             "n_visual": 0,
             "n_proprio": int(space.shape[0]),  # type: ignore[index]
+            "proprio": True,  # the observation is the sensor vector (the vision preset hides it)
             "encoder": "cnn",
             "feature_dim": frontend_dim("cnn"),
         }
