@@ -48,7 +48,7 @@ def _diff(biarm: dict[int, float], pnn: dict[int, float]) -> str:
         return "–"
     d = [biarm[s] - pnn[s] for s in seeds]
     p = permutation_test([biarm[s] for s in seeds], [pnn[s] for s in seeds], paired=True)
-    return f"{sum(d) / len(d):+.1f} (p = {p:.2g}, {sum(x > 0 for x in d)}/{len(d)} seeds)"
+    return f"{sum(d) / len(d):+.1f} (p = {p:.2g}; higher on {sum(x > 0 for x in d)}/{len(d)} seeds)"
 
 
 def protocol_table(out: Path, cfg: Any) -> list[str]:
@@ -86,8 +86,10 @@ def protocol_table(out: Path, cfg: Any) -> list[str]:
         "",
         "Final greedy return per task, mean [bootstrap 95 % CI] over seeds, on the SPEC §1.7 "
         "evaluation seeds; BIARM − PNN is paired by seed (exact sign-flip test over seeds). "
-        "`v1`: ε × 0.995 per episode, hard target copy every 500 gradient steps, last network; "
-        "`default`: the protocol the sweep picked (docs/results/biarm.md).",
+        "`v1`: ε × 0.995 per episode, hard target copy every 500 gradient steps, the last "
+        "network; `default`: ε × 0.995 per environment step, soft target (τ 0.005), the column "
+        "that scored best on validation seeds (the protocol the sweep picked, "
+        "docs/results/biarm.md).",
         "",
         *rows,
         "",
