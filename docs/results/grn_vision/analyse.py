@@ -117,6 +117,8 @@ def second_preset() -> None:
             f"| seed {s} | {fmt(sum(clean), len(clean))} | {nz} | {summ['episodes_run']} | "
             f"{summ['wall_s'] / 60:.1f} min |"
         )
+    k, n = sum(sum(v) for v in got.values()), sum(len(v) for v in got.values())
+    print(f"| pooled, {len(got)} seeds | {fmt(k, n)} | | | |")
     print()
     print("| second preset − policy, points (exact McNemar p) | " + " | ".join(got) + " |")
     print("|---|" + "---|" * len(got))
