@@ -63,6 +63,7 @@ def progress_callback() -> ProgressCallback:
     """The active callback of :func:`report_progress` (a no-op outside one)."""
     return _PROGRESS.get() or (lambda done, total: None)
 
+
 T = TypeVar("T")
 R = TypeVar("R")
 
