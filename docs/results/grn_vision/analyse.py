@@ -124,6 +124,19 @@ def second_preset() -> None:
     print("|---|" + "---|" * len(got))
     for name, e in base.items():
         print(f"| {name} | " + " | ".join(pfmt(paired(got[s], e)) for s in got) + " |")
+    for d in sorted(HERE.glob("vision2_noes_s*")):  # the same preset, evolution.early_stop false
+        s = d.name.rsplit("_s", 1)[1]
+        ev = next(d.glob("eval_test_*_episodes.csv"))
+        clean, noisy = successes(ev, "genome"), successes(ev, "genome_noisy") or []
+        if clean is None:
+            continue
+        summ = json.loads((d / "summary.json").read_text())
+        print(f"\nno early stop, seed {s}: {fmt(sum(clean), len(clean))}, noisy "
+              f"{fmt(sum(noisy), len(noisy)) if noisy else '—'}, {summ['episodes_run']} episodes, "
+              f"{summ['wall_s'] / 60:.1f} min")  # fmt: skip
+        others = {**base, **{f"early-stopped seed {k}": v for k, v in got.items()}}
+        for name, e in others.items():
+            print(f"  − {name}: {pfmt(paired(clean, e))}")
 
 
 if __name__ == "__main__":
