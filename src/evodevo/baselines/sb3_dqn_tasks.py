@@ -74,6 +74,7 @@ from evodevo.config import to_dict
 from evodevo.errors import CheckpointError, EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, retention
+from evodevo.neuromod.keep_best import BestColumn
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.trainer import METRIC_FIELDS, NEUROMOD_FIELDS, EpisodeInfo, resume_hint
 from evodevo.neuromod.variants import Variant
@@ -171,38 +172,19 @@ class TaskCallback(BaseCallback):
         self._t0 = time.perf_counter()
         self._per_step = cfg.dqn.eps_unit == "step"
         self._ep_eps = epsilon.eps  # epsilon of the episode's first action (metrics.csv)
-        # dqn.keep: best -- validation seeds, best mean return and parameters so far
+        # dqn.keep: best -- the same selection rule and record as our trainer's
         self.keep_best = cfg.dqn.keep == "best"
-        self._vseeds = eval_seeds(cfg.eval.validation_seed, cfg.eval.validation_episodes)
-        self.best_return = -math.inf
-        self.best_episode = -1
-        self.best_state: dict[str, torch.Tensor] | None = None
-        self.checks = 0
+        self.keeper = BestColumn(cfg, spec.episodes)
 
     def _validate(self) -> None:
         """``dqn.keep: best``: greedy episodes on the validation seeds; keep the best policy."""
         model = cast(DQN, self.model)
-        mean = float(np.mean(evaluate_model(model, self.spec, self._vseeds)))
-        if mean > self.best_return:
-            self.best_return, self.best_episode = mean, self.episodes
-            self.best_state = {
-                k: v.detach().clone() for k, v in self.model.policy.state_dict().items()
-            }
-        self.checks += 1
+        mean = float(np.mean(evaluate_model(model, self.spec, self.keeper.seeds)))
+        self.keeper.offer(mean, self.episodes, model.policy)
 
     def keep(self, model: DQN) -> dict[str, Any] | None:
         """End of the task: load the best validated parameters into ``model`` (keep: best)."""
-        if not self.keep_best:
-            return None
-        if self.best_state is not None:
-            model.policy.load_state_dict(self.best_state)
-        return {
-            "kept": "best",
-            "best_episode": self.best_episode,
-            "best_validation_return": self.best_return,
-            "validation_checks": self.checks,
-            "validation_seeds": [self._vseeds[0], self._vseeds[-1]],
-        }
+        return self.keeper.restore_into(model.policy) if self.keep_best else None
 
     def _on_step(self) -> bool:
         cfg = self.cfg
@@ -263,8 +245,7 @@ class TaskCallback(BaseCallback):
             self.epsilon.decay()
         self._ep_eps = self.epsilon.eps
         self.episodes += 1
-        every = self.cfg.eval.validation_every
-        if self.keep_best and (self.episodes % every == 0 or self.episodes == self.spec.episodes):
+        if self.keep_best and self.keeper.due(self.episodes):
             self._validate()
 
 

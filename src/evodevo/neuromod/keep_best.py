@@ -69,13 +69,7 @@ class BestColumn:
         Returns the ``validation.csv`` row.
         """
         mean = float(np.mean(evaluate_column(agent, index, spec, self.seeds)))
-        if mean > self.best_return:
-            self.best_return = mean
-            self.best_episode = episodes_done
-            self.best_state = {
-                k: v.detach().clone() for k, v in agent.net.current.state_dict().items()
-            }
-        self.checks += 1
+        self.offer(mean, episodes_done, agent.net.current)
         return {
             "task": index,
             "env_id": spec.env_id,
@@ -86,13 +80,26 @@ class BestColumn:
             "best_episode": self.best_episode,
         }
 
+    def offer(self, mean: float, episodes_done: int, module: torch.nn.Module) -> None:
+        """Count one check of mean validation return ``mean``; keep a copy of ``module``'s
+        parameters when it beats the best so far (the earliest wins a tie)."""
+        if mean > self.best_return:
+            self.best_return = mean
+            self.best_episode = episodes_done
+            self.best_state = {k: v.detach().clone() for k, v in module.state_dict().items()}
+        self.checks += 1
+
     def restore(self, agent: BiarmAgent) -> dict[str, Any]:
         """Load the best parameters into the trainable column (before it is frozen).
 
         Returns what ``summary.json`` records of the selection.
         """
+        return self.restore_into(agent.net.current)
+
+    def restore_into(self, module: torch.nn.Module) -> dict[str, Any]:
+        """Load the best parameters into ``module``; returns the ``summary.json`` record."""
         if self.best_state is not None:
-            agent.net.current.load_state_dict(self.best_state)
+            module.load_state_dict(self.best_state)
         return {
             "kept": "best",
             "best_episode": self.best_episode,
