@@ -78,6 +78,7 @@ class BiarmAgent:
                 learn_context=cfg.modules.learn_context_weights,
                 lateral_kernel=cfg.network.lateral_kernel,
                 lateral_init=cfg.network.lateral_init,
+                lateral_scale=cfg.network.lateral_scale,
             )
         else:
             raise ValueError(
@@ -106,9 +107,15 @@ class BiarmAgent:
         self.grad_steps = 0
 
     # ------------------------------------------------------------------ tasks
-    def begin_task(self, n_actions: int) -> None:
-        """Freeze earlier columns, add column i, reset novelty, fresh target and Adam."""
-        self.net.add_column(n_actions)
+    def begin_task(self, n_actions: int, lateral_scale: float | None = None) -> None:
+        """Freeze earlier columns, add column i, reset novelty, fresh target and Adam.
+
+        ``lateral_scale`` overrides ``network.lateral_scale`` for this column (restoring a
+        checkpoint whose columns were built with other scales)."""
+        if isinstance(self.net, ProgressiveNet):
+            self.net.add_column(n_actions, lateral_scale)
+        else:
+            self.net.add_column(n_actions)
         self.col = self.net.n_columns - 1
         self.target = self.net.make_target()
         self.params = [p for p in self.net.current.parameters() if p.requires_grad]
@@ -230,7 +237,7 @@ class BiarmAgent:
         online, target, grads = self._td_cpp
         col = self.col
         st = self.states_t
-        prev = net.features(torch.cat((obs, nobs)), col, st) if col > 0 else ()
+        prev = net.lateral_inputs(torch.cat((obs, nobs)), col, st) if col > 0 else ()
         dqn = self.cfg.dqn
         return load_kernel().td_update(  # type: ignore[union-attr]
             obs, nobs, act, rew, term, list(prev), _EMPTY if st is None else st,
@@ -249,7 +256,7 @@ class BiarmAgent:
         bsz = obs.shape[0]
         if col > 0 and isinstance(self.net, ProgressiveNet):
             assert isinstance(column, Column) and isinstance(target, Column)
-            prev = self.net.features(torch.cat((obs, nobs)), col, st)
+            prev = self.net.lateral_inputs(torch.cat((obs, nobs)), col, st)
             st_on = st
             if self.learned:  # per-sample gate from the module networks' batch outputs
                 assert self.modules is not None
@@ -300,8 +307,11 @@ class BiarmAgent:
 
     def load_state(self, data: dict[str, Any]) -> None:
         """Restore :meth:`state` output into this (freshly built) agent."""
-        for a in data["net_config"]["actions"]:
-            self.net.add_column(int(a))
+        for a, s in _column_scales(data):
+            if isinstance(self.net, ProgressiveNet):
+                self.net.add_column(a, s)
+            else:
+                self.net.add_column(a)
         self.net.load_state_dict(data["net"])
         self.net.freeze_all()
         self.col = int(data["col"])
@@ -325,8 +335,8 @@ class BiarmAgent:
     def load_train_state(self, data: dict[str, Any]) -> None:
         """Restore :meth:`train_state` output into a freshly built agent, mid-task: earlier
         columns frozen, the last one trainable with its target network and Adam state."""
-        for a in data["net_config"]["actions"]:
-            self.begin_task(int(a))
+        for a, s in _column_scales(data):
+            self.begin_task(a, s)
         self.net.load_state_dict(data["net"])
         self.net._refresh_frozen()  # the fused caches of the frozen columns hold copies
         if self.modules is not None:
@@ -340,3 +350,12 @@ class BiarmAgent:
         self.optimizer.load_state_dict(flatten_adam_state(data["optimizer"], self.flat.sizes))
         self._group = self.optimizer.param_groups[0]  # load_state_dict made new group dicts
         self.grad_steps = int(data["grad_steps"])
+
+
+def _column_scales(data: dict[str, Any]) -> list[tuple[int, float]]:
+    """(actions, lateral_scale) of every column of an agent :meth:`~BiarmAgent.state`
+    (checkpoints written before ``network.lateral_scale`` existed: 1.0)."""
+    cfg = data["net_config"]
+    actions = [int(a) for a in cfg["actions"]]
+    scales = [float(x) for x in cfg.get("lateral_scales", [1.0] * len(actions))]
+    return list(zip(actions, scales, strict=True))

@@ -125,6 +125,11 @@ class Column(nn.Module):
         learn_context: train w_m with the column.
         gen: generator for the Xavier initialisation.
         kernel: ``"cpp"`` (fused C++ laterals) or ``"torch"`` (:mod:`evodevo.neuromod.kernels`).
+        lateral_init: ``xavier`` or ``zero`` initial ``U`` (``network.lateral_init``).
+        lateral_scale: the fixed factor ``s`` on the earlier columns' activations this column's
+            laterals read (``network.lateral_scale``): the column computes ``U (s h_k)``
+            (PNN) or ``U (alpha * V (s h_k))`` (BIARM). :meth:`ProgressiveNet.lateral_inputs`
+            applies it, so :meth:`forward` and the C++ kernels take the scaled inputs.
     """
 
     def __init__(
@@ -140,8 +145,10 @@ class Column(nn.Module):
         gen: torch.Generator,
         kernel: str = "torch",
         lateral_init: str = "xavier",
+        lateral_scale: float = 1.0,
     ) -> None:
         super().__init__()
+        self.lateral_scale = float(lateral_scale)
         self.n_prev = k = n_prev
         self.hidden = h = hidden
         self.n_actions = a = n_actions
@@ -256,6 +263,9 @@ class ProgressiveNet(nn.Module):
             computes the frozen columns' activations in one C++ call for PNN and BIARM alike
             (bit for bit the PyTorch numbers), and BIARM's gated laterals in the fused kernel
             (PNN's laterals are one matrix product per layer already).
+        lateral_init: ``network.lateral_init`` of every new column.
+        lateral_scale: ``network.lateral_scale`` of every new column (a column keeps the one
+            it was built with: :meth:`add_column` may override it, checkpoints store it).
     """
 
     def __init__(
@@ -269,9 +279,11 @@ class ProgressiveNet(nn.Module):
         learn_context: bool = True,
         lateral_kernel: str = "auto",
         lateral_init: str = "xavier",
+        lateral_scale: float = 1.0,
     ) -> None:
         super().__init__()
         self.lateral_init = lateral_init
+        self.lateral_scale = lateral_scale
         self.lateral_kernel = lateral_kernel
         self.kernel = resolve_kernel(lateral_kernel)
         self.obs_dim = obs_dim
@@ -307,8 +319,9 @@ class ProgressiveNet(nn.Module):
     def current(self) -> Column:
         return self.columns[-1]  # type: ignore[return-value]
 
-    def add_column(self, n_actions: int) -> Column:
-        """Freeze every existing column and append a new trainable one."""
+    def add_column(self, n_actions: int, lateral_scale: float | None = None) -> Column:
+        """Freeze every existing column and append a new trainable one (its laterals read the
+        earlier activations times ``lateral_scale``, default the net's)."""
         for col in self.columns:
             for p in col.parameters():
                 p.requires_grad_(False)
@@ -325,6 +338,7 @@ class ProgressiveNet(nn.Module):
             gen=torch_gen(self.seed, 3, self.n_columns),
             kernel=self.kernel,
             lateral_init=self.lateral_init,
+            lateral_scale=self.lateral_scale if lateral_scale is None else lateral_scale,
         )
         self.columns.append(col)
         return col
@@ -339,13 +353,32 @@ class ProgressiveNet(nn.Module):
         self._b1_frozen = torch.cat([c.b1.detach() for c in cols])
         self._frozen_w2 = [c.w2.detach() for c in cols]
         self._frozen_b2 = [c.b2.detach() for c in cols]
-        self._frozen_u2 = [c.u2.detach() if c.n_prev else torch.empty(0) for c in cols]
+        # a frozen column's lateral scale is folded into its lateral weights (U (s h) = (s U) h
+        # for PNN; (s h) V = h (s V) for BIARM's adapters, biases unscaled), so the frozen
+        # activations below (PyTorch, NumPy and C++ alike) read the raw earlier activations
+        self._frozen_u2 = [
+            (
+                c.u2.detach() * c.lateral_scale
+                if c.lateral_scale != 1.0 and not self.gated
+                else c.u2.detach()
+            )
+            if c.n_prev
+            else torch.empty(0)
+            for c in cols
+        ]
         if self.gated:
             self._ctxw_frozen = [c.ctx_w.detach().tolist() if c.n_prev else None for c in cols]
             self._ctxw_frozen_t = torch.tensor([w or [0.0] * 4 for w in self._ctxw_frozen])
             lat = [c for c in cols if c.n_prev]
             if lat:
-                self._adw_frozen = torch.cat([c.ad_w.detach()[: c.n_prev] for c in lat])
+                self._adw_frozen = torch.cat(
+                    [
+                        c.ad_w.detach()[: c.n_prev] * c.lateral_scale
+                        if c.lateral_scale != 1.0
+                        else c.ad_w.detach()[: c.n_prev]
+                        for c in lat
+                    ]
+                )
                 self._adb_frozen = torch.cat([c.ad_b.detach()[: c.n_prev] for c in lat])
                 self._blk_src = torch.tensor([k for c in lat for k in range(c.n_prev)])
 
@@ -413,7 +446,7 @@ class ProgressiveNet(nn.Module):
             parts = [h1]
             for j in range(upto):
                 col = self.columns[j]  # type: ignore[assignment]
-                t2 = torch.addmm(col.b2, h1[:, : j * h], col.u2) if j else col.b2
+                t2 = torch.addmm(col.b2, h1[:, : j * h], self._frozen_u2[j]) if j else col.b2
                 parts.append(torch.relu(torch.addmm(t2, h1[:, j * h : (j + 1) * h], col.w2)))
             return h1, parts[1] if upto == 1 else torch.cat(parts[1:], 1)
 
@@ -427,8 +460,19 @@ class ProgressiveNet(nn.Module):
         if col == 0:
             return column(x)
         frozen_states = states if states is None or states.dim() == 1 else None
-        prev = self.features(x, col, frozen_states)
+        prev = self.lateral_inputs(x, col, frozen_states)
         return column(x, prev, states)
+
+    def lateral_inputs(self, x: torch.Tensor, col: int, states: torch.Tensor | None) -> Prev:
+        """What column ``col``'s laterals read: :meth:`features` of the columns ``< col``
+        times the column's ``lateral_scale`` (the same tensors when it is 1)."""
+        prev = self.features(x, col, states)
+        s = self._scale(col)
+        return prev if s == 1.0 else tuple(p * s for p in prev)
+
+    def _scale(self, col: int) -> float:
+        column: Column = self.columns[col]  # type: ignore[assignment]
+        return column.lateral_scale
 
     def _np_views(self, col: int) -> dict[str, np.ndarray]:
         """NumPy views (shared memory) of column ``col``'s parameters and the frozen caches."""
@@ -493,8 +537,11 @@ class ProgressiveNet(nn.Module):
                 s0 = j * (j - 1) // 2
                 t += gates[j] * (zf[s0 : s0 + j].reshape(-1) @ fv["u2"])
             elif j:
-                t += feats[:j].reshape(-1) @ fv["u2"]
+                t += feats[:j].reshape(-1) @ self._frozen_u2[j].numpy()
             np.maximum(t, 0.0, out=feats[col + j])
+        scale = self._scale(col)
+        if scale != 1.0:  # what this column's laterals read (lateral_inputs)
+            feats *= scale
         if self.gated:
             assert states is not None
             o = np.matmul(feats[:, None], v["ad_w"])[:, 0]
@@ -533,16 +580,22 @@ class ProgressiveNet(nn.Module):
             "learn_context": self.learn_context,
             "lateral_kernel": self.lateral_kernel,
             "actions": [c.n_actions for c in self.columns],  # type: ignore[union-attr]
+            "lateral_scales": self.lateral_scales(),
         }
+
+    def lateral_scales(self) -> list[float]:
+        """Each column's ``lateral_scale``, in column order."""
+        return [self._scale(i) for i in range(self.n_columns)]
 
     @classmethod
     def from_config(cls, cfg: dict[str, object]) -> ProgressiveNet:
         """Rebuild an empty stack with the same columns (load a state dict into it)."""
         kw = dict(cfg)
-        actions = kw.pop("actions")
+        actions = list(kw.pop("actions"))  # type: ignore[call-overload]
+        scales = list(kw.pop("lateral_scales", [1.0] * len(actions)))  # type: ignore[call-overload]
         net = cls(**kw)  # type: ignore[arg-type]
-        for a in actions:  # type: ignore[attr-defined]
-            net.add_column(int(a))
+        for a, s in zip(actions, scales, strict=True):
+            net.add_column(int(a), float(s))
         return net
 
     def freeze_all(self) -> None:

@@ -149,6 +149,12 @@ class NetworkConfig:
         "initial lateral maps U of a new column (SPEC §1.2, §1.6): xavier (v1), or zero (the "
         "new column starts as an isolated column and learns to read the earlier ones)",
     )
+    lateral_scale: float = doc(
+        1.0,
+        "fixed factor on the earlier columns' activations a new column's laterals read "
+        "(Rusu et al. 2016's input scale, not learned; SPEC §1.2): under Adam it scales the "
+        "laterals' initial size and their learning rate alike; 1.0 = v1",
+    )
 
     def validate(self) -> None:
         if self.hidden < 1:
@@ -164,6 +170,11 @@ class NetworkConfig:
         if self.lateral_init not in ("xavier", "zero"):
             raise ConfigError(
                 f"network.lateral_init={self.lateral_init!r} is not one of xavier, zero"
+            )
+        if not (math.isfinite(self.lateral_scale) and self.lateral_scale > 0):
+            raise ConfigError(
+                f"network.lateral_scale={self.lateral_scale!r} must be a finite number > 0 "
+                "(1.0 = the earlier columns' activations as they are)"
             )
 
 

@@ -35,7 +35,7 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
             "double_q": False,
             "keep": "last",
         },
-        "network": {"lateral_init": "xavier"},
+        "network": {"lateral_init": "xavier", "lateral_scale": 1.0},
     },
 }
 

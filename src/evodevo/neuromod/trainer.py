@@ -327,6 +327,7 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
             part["network"] = {k: v for k, v in part["network"].items() if k != "lateral_kernel"}
             # configs written before network.lateral_init existed ran with Xavier laterals
             part["network"].setdefault("lateral_init", "xavier")
+            part["network"].setdefault("lateral_scale", 1.0)
     for key in ("variant", "seed", "tasks", "episodes_scale", "dqn", "network", "modules"):
         if theirs.get(key) != mine.get(key):
             raise CheckpointError(
