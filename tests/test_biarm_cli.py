@@ -155,7 +155,7 @@ def test_compare_and_report(tmp_path, tiny_cfg):
     _ok(["report", str(out), "--no-figures"])
     assert "Retention" in (out / "table_3_5.md").read_text()
     text = _ok(["contrast", "--runs", f"a={out},b={out}", "--variant", "pnn"])
-    assert "| CartPole-v1 |" in text and "seeds [0, 1]" in text
+    assert "| CartPole-v1 |" in text and "seeds 0-1" in text
     _fails(["contrast", "--runs", f"a{out}"], EvodevoError, "label=DIR")
 
 

@@ -394,7 +394,7 @@ def test_compare_biarm_tables_from_fixture_runs(tmp_path):
     assert float(pnn["thesis_final_mean"]) == 491.0 and float(pnn["thesis_retention"]) == 0.9895
     md = (out / "table_continual.md").read_text()
     assert "| pnn | CartPole-v1 | 1 | 400.00 ± 0.00 [400.00, 400.00]" in md
-    assert "— (last task)" in md and "finetune: seeds [0, 1]" in md and "episodes_scale 0.1" in md
+    assert "— (last task)" in md and "finetune: seeds 0-1" in md and "episodes_scale 0.1" in md
     assert list(rows)[0] == ("pnn", "CartPole-v1")  # table order: known variants first
 
 

@@ -310,22 +310,26 @@ class TurnPolicy(ZeroPolicy):
         return a
 
 
-def _scripted(config: Any, n_actions: int) -> Any:
-    from evodevo.baselines.policies import ScriptedPolicy
-
-    return ScriptedPolicy(config, n_actions)
-
-
-BASELINES: dict[str, Callable[[Any, int], Any]] = {
+BASELINES: dict[str, Callable[[Any, int], Any] | str] = {
     "zero": ZeroPolicy,
     "random": RandomPolicy,
     "turn": TurnPolicy,
-    "scripted": _scripted,
 }
 """The reference policies measured beside every result (SPEC §2.5): all-zero, uniform random,
-the constant "turn the gripper" action (last action dimension -1), and the scripted image-only
-pipeline (:class:`evodevo.baselines.policies.ScriptedPolicy`: blob nearest the gripper on the
-first frame, move over it, turn)."""
+the constant "turn the gripper" action (last action dimension -1), and whatever the baselines
+package registers with :func:`register_baseline` (the scripted image-only pipeline,
+``scripted``: blob nearest the gripper on the first frame, move over it, turn). Values are
+factories ``(config, n_actions)`` or ``"module:attr"`` paths, imported when first used, so
+this module never imports the baselines package."""
+
+
+def register_baseline(name: str, factory: Callable[[Any, int], Any] | str) -> None:
+    """Register a reference policy measured beside every GRN result (a key of BASELINES)."""
+    BASELINES[name] = factory
+
+
+# the scripted pipeline lives with the other baselines (evodevo.baselines.policies); by name
+register_baseline("scripted", "evodevo.baselines.policies:ScriptedPolicy")
 
 _REGISTRY: dict[str, Callable[..., Any] | str] = {
     "plain": PlainGrnController,
@@ -372,7 +376,7 @@ def make_policy(config: Any, n_actions: int, baseline: str | None = None) -> Any
         return make_controller(config, n_actions)
     if baseline not in BASELINES:
         raise EvodevoError(f"unknown baseline {baseline!r}; choose one of {sorted(BASELINES)}")
-    return BASELINES[baseline](config, n_actions)
+    return _resolve(BASELINES[baseline])(config, n_actions)
 
 
-__all__ += ["make_policy"]
+__all__ += ["make_policy", "register_baseline"]

@@ -683,7 +683,7 @@ def contrast_table(dirs: Mapping[str, str | Path], variant: str = "biarm") -> st
                 higher[lab] += 1
     eps = ", ".join(f"{t['env_id']} {t['episodes']}" for t in first["tasks"])
     note = (
-        f"Variant {variant}; seeds {seeds}; episodes per task {eps}; "
+        f"Variant {variant}; seeds {format_seeds(seeds)}; episodes per task {eps}; "
         f"tasks where a label has the strictly highest mean final return: {higher}.\n\n"
     )
     return note + _md_table(header, rows)
@@ -749,7 +749,7 @@ def _continual_budget(
         s = runs[v][seed]
         eps = ", ".join(f"{t['env_id']} {t['episodes']}" for t in s["tasks"])
         lines.append(
-            f"- {v}: seeds {sorted(runs[v])}; episodes per task {eps} (episodes_scale "
+            f"- {v}: seeds {format_seeds(list(runs[v]))}; episodes per task {eps} (episodes_scale "
             f"{saved['config'].get('episodes_scale')}); {len(s['eval_seeds'])} greedy "
             f"evaluation episodes, seeds {s['eval_seeds'][0]}..{s['eval_seeds'][-1]}"
         )
