@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from evodevo.neuromod.compare import ABLATIONS, BENCHMARK_OVERHEAD, paired_difference
 from evodevo.neuromod.evaluation import retention
+from evodevo.neuromod.tables import ABLATIONS, BENCHMARK_OVERHEAD, paired_difference
 from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4
 from evodevo.stats import MeanSummary, summarise
 

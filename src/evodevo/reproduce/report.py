@@ -17,9 +17,9 @@ from evodevo.grn.ablation_pooling import (
     pooled_ablations_markdown,
     read_ablation_tables,
 )
-from evodevo.neuromod.compare import (
+from evodevo.neuromod.compare import collect
+from evodevo.neuromod.tables import (
     STATS_NOTE,
-    collect,
     format_seeds,
     report_tables,
     run_facts,
