@@ -22,8 +22,9 @@ SUITE = {
     "biarm_floor": "BIARM / PNN parameters, update FLOPs (the method's floor) and our update's time",
     "dqn_throughput": "our DQN training steps/s / Stable-Baselines3 DQN's, same network and schedule",
     "env_speed": "our KukaDiverseObject-v0 episodes/s / the original pybullet_envs class's",
-    "evolution_speed": "Kuka episodes/CPU-s with the settled-scene cache / without: one thesis "
-    "generation (12 genomes x 10 seeds; also with dedupe) and the 7-policy test",
+    "evolution_speed": "Kuka episodes/CPU-s with the settled-scene cache and the skipped lift "
+    "/ the port before them: one thesis generation (12 genomes x 10 seeds; also with dedupe) "
+    "and the 7-policy test",
     "grn_step": "share of a Kuka env step spent in the GRN controller (encoder + dynamics)",
     "scaling": "GRN evolution speed-up with 2 worker processes and with 2 Ray actors vs 1 worker",
 }

@@ -124,9 +124,9 @@ def run_episodes(
         policy: One of :data:`POLICIES`.
         seeds: One episode per seed.
         test_objects: Held-out objects.
-        exact: Ours only: a fresh instance with ``deterministic_pairs=False`` and
-            ``scene_cache=False`` per episode, the setting in which the port reproduces the
-            original bit for bit.
+        exact: Ours only: a fresh instance with ``deterministic_pairs=False``,
+            ``scene_cache=False`` and ``skip_empty_lift=False`` per episode, the setting in
+            which the port reproduces the original bit for bit.
 
     Returns:
         ``{"rewards", "steps", "digests", "cpu_s", "wall_s"}``: final reward and number of
@@ -148,7 +148,10 @@ def run_episodes(
     for seed in seeds:
         if which == "ours" and exact:
             env = KukaDiverseObjectEnv(
-                test_objects=test_objects, deterministic_pairs=False, scene_cache=False
+                test_objects=test_objects,
+                deterministic_pairs=False,
+                scene_cache=False,
+                skip_empty_lift=False,
             )
         act_rng = np.random.default_rng([seed, 1])
         c0, w0 = time.process_time(), time.perf_counter()

@@ -1,33 +1,47 @@
-"""Kuka episodes per CPU-second with and without the settled-scene cache (issue 24; SPEC §2.4-2.5).
+"""Kuka episodes per CPU-second, the port before issue 24 against its speed-ups (SPEC §2.4-2.5).
 
 Two workloads of the thesis protocol, each run by the GRN evaluator in this process (one
-worker, lockstep 4, as ``evodevo grn evolve``/``evaluate`` run them), once with
-``scene_cache=False`` (every reset drops and settles its objects) and once with a fresh, empty
-settled-scene cache (the first reset of a drop settles it, later ones place it):
+worker, lockstep 4, as ``evodevo grn evolve``/``evaluate`` run them), in several arms:
+
+* ``uncached``: the port before issue 24, ``scene_cache=False`` (every reset drops and settles
+  its objects) and ``skip_empty_lift=False`` (every grasp lifts for all 500 steps) — "today",
+  the baseline of every ratio;
+* ``cached``: a fresh, empty settled-scene cache per arm (the first reset of a drop settles it,
+  later ones place it), full lifts;
+* ``cached_skip``: the cache and the skipped lift (the lift of a failed grasp stops once the arm
+  is clear of every object; docs/kuka_env.md, "Skipped lift");
+* ``cached_skip_dedupe`` (generation only): also ``evaluation.dedupe``: a mutant whose mutation
+  changed nothing (a clone of the evolved genome, :func:`evodevo.grn.evaluator.genome_key`) is
+  not run again but gets its twin's results, as the evaluator does within one generation's
+  call (its episodes count as scored, so its rate is episodes scored per CPU-second).
+
+Workloads:
 
 * **generation**: one generation, 12 genomes (an evolved genome and 11 mutants of it) × 10
-  common episode seeds (3 of them with visual noise), training objects; a third arm,
-  ``cached_dedupe``, adds ``evaluation.dedupe``: a mutant whose mutation changed nothing (a
-  clone of the evolved genome, :func:`evodevo.grn.evaluator.genome_key`) is not run again but
-  gets its twin's results, as the evaluator does for one generation's call (its episodes count
-  as scored, so its rate is episodes scored per CPU-second);
+  common episode seeds (3 of them with visual noise), training objects;
 * **test**: the 200-episode test (fixed test seeds, held-out objects) of one policy, repeated
   for 7 policies: the evolved GRN, its noisy twin, the all-zero, uniform-random and
   constant-turn policies, and two mutants of the GRN (stand-ins for ablated genomes).
 
 The arms alternate genome by genome (policy by policy), so all see the same machine load.
-Rates are episodes per second of process CPU time; ``ratio`` = cached / uncached,
-``ratio_dedupe`` = cached_dedupe / uncached. The cached and uncached arms
-play the same seeds and actions: ``same_success`` counts the episodes whose success is the same
-in both (the uncached arm settles the objects in the episode's own world, whose contact caches
-the episode inherits, so single outcomes can differ; docs/kuka_env.md, "Settled-scene cache").
+Rates are episodes per second of process CPU time; ``ratio[arm]`` = arm / uncached. The
+headline ratios are ``ratio_generation`` (``cached_skip_dedupe``) and ``ratio_test``
+(``cached_skip``): everything on against today. All arms play the same seeds and actions:
+``same_success_as_uncached`` counts the episodes whose success equals the uncached arm's (the
+uncached arm settles the objects in the episode's own world, whose contact caches the episode
+inherits, so single outcomes can differ; docs/kuka_env.md, "Settled-scene cache");
+``skip_same_as_cached`` and ``dedupe_same`` must be complete (the skip and dedupe change no
+outcome).
 
 Usage::
 
-    python benchmarks/evolution_speed.py [--quick] [--seeds N] [--test-seeds N] [--no-test] [--json]
+    python benchmarks/evolution_speed.py [--quick] [--lean] [--seeds N] [--test-seeds N]
+                                         [--no-test] [--json]
 
-The last line of output is JSON. ``--quick`` (a smoke run for ``python -m benchmarks --quick``;
-its ratios mean little): 2 genomes × 1 seed and 2 policies × 1 seed.
+The last line of output is JSON. ``--lean`` runs only the ``uncached`` arm and the arm with
+everything on (the headline ratios at about half the CPU). ``--quick`` (a smoke run for
+``python -m benchmarks --quick``, lean; its ratios mean little): 2 genomes × 1 seed and
+2 policies × 1 seed.
 """
 
 from __future__ import annotations
@@ -84,8 +98,9 @@ def run(
     test_seeds: int | None = None,
     run_dir: str | Path = DEFAULT_RUN,
     test: bool = True,
+    lean: bool = False,
 ) -> dict[str, Any]:
-    """Time both workloads cached and uncached; see the module docstring.
+    """Time both workloads in every arm; see the module docstring.
 
     Args:
         quick: Smoke budgets (2 genomes × 1 seed, 2 policies × 1 seed).
@@ -95,18 +110,20 @@ def run(
         test_seeds: Test episodes per policy (default 200).
         run_dir: GRN run whose evolved genome, encoder and config are used.
         test: also time the test workload (False: the generation only).
+        lean: only the ``uncached`` arm and the arm with everything on (always with ``quick``).
 
     Returns:
-        Per workload: episodes, CPU seconds and episodes per CPU-second of every arm, the
-        ``ratio`` (and for the generation ``ratio_dedupe``, ``clones``, ``dedupe_same``: the
-        dedupe arm's outcomes equal the cached arm's), ``same_success`` and the cache's hits
-        and misses; ``max_rss_mib``.
+        Per workload: episodes, CPU seconds, episodes per CPU-second, success rate and cache
+        hits and misses of every arm, ``ratio`` and ``same_success_as_uncached`` per arm,
+        ``skip_same_as_cached``, for the generation ``clones``, the dedupe arm's
+        ``episodes_run`` and ``dedupe_same`` (its outcomes equal ``cached_skip``'s); the
+        headline ``ratio_generation`` and ``ratio_test``; ``max_rss_mib``.
     """
-    from evodevo.envs.scene_cache import SceneCache
     from evodevo.grn.evaluation import test_episodes
     from evodevo.grn.evaluator import Evaluator, genome_key
     from evodevo.grn.evolution import EPISODE_KEY, training_episodes
 
+    lean = lean or quick
     n_gen = genomes if genomes is not None else (2 if quick else 12)
     n_seeds = seeds if seeds is not None else (1 if quick else 10)
     n_pol = min(policies if policies is not None else (2 if quick else 7), 7)
@@ -117,14 +134,7 @@ def run(
     train = training_episodes(
         config.seed, EPISODE_KEY, 0, n_seeds, config.evaluation.noisy_fraction
     )
-    res: dict[str, Any] = {"run": str(run_dir)}
-
-    def arms() -> dict[str, Any]:
-        cache = SceneCache()
-        return {
-            "uncached": {"config": _with_env(config, scene_cache=False), "cache": None},
-            "cached": {"config": _with_env(config, scene_cache=cache), "cache": cache},
-        }
+    res: dict[str, Any] = {"run": str(run_dir), "lean": lean}
 
     def timed(evaluator: Evaluator, *args: Any, **kwargs: Any) -> tuple[np.ndarray, float]:
         c0 = time.process_time()
@@ -132,49 +142,39 @@ def run(
         return out.success.ravel(), time.process_time() - c0
 
     # one generation: genome by genome, alternating the arms
-    gen = arms()
-    dedupe_cache = SceneCache()
+    names = GENERATION_LEAN if lean else GENERATION_ARMS
+    gen = _arms(config, names)
     evs = {name: Evaluator(a["config"], encoder) for name, a in gen.items()}
-    evs["cached_dedupe"] = Evaluator(_with_env(config, scene_cache=dedupe_cache), encoder)
     success: dict[str, list[np.ndarray]] = {name: [] for name in evs}
     cpu = dict.fromkeys(evs, 0.0)
-    seen: dict[Any, np.ndarray] = {}  # the dedupe arm's distinct genomes so far
+    seen: dict[str, dict[Any, np.ndarray]] = {name: {} for name in evs}  # dedupe arms' genomes
     try:
         for g in population:
             for name, ev in evs.items():
                 key = genome_key(g)
-                if name == "cached_dedupe" and key in seen:
-                    success[name].append(seen[key])  # a twin's copy: no episode run
+                if gen[name]["dedupe"] and key in seen[name]:
+                    success[name].append(seen[name][key])  # a twin's copy: no episode run
                     continue
                 s, c = timed(ev, [g], train)
                 success[name].append(s)
                 cpu[name] += c
-                if name == "cached_dedupe":
-                    seen[key] = s
+                seen[name][key] = s
     finally:
         for ev in evs.values():
             ev.close()
-    dedupe_success = success.pop("cached_dedupe")
-    dedupe_cpu = cpu.pop("cached_dedupe")
     res["generation"] = g_res = _summary(
         gen, success, cpu, f"{n_gen} genomes x {n_seeds} common seeds"
     )
-    g_res["clones"] = n_gen - len(seen)
-    g_res["cached_dedupe_episodes_run"] = len(seen) * n_seeds
-    g_res["cached_dedupe_cpu_s"] = round(dedupe_cpu, 2)
-    g_res["cached_dedupe_episodes_per_cpu_s"] = rate = (
-        n_gen * n_seeds / dedupe_cpu if dedupe_cpu > 0 else None
-    )
-    base = g_res["uncached_episodes_per_cpu_s"]
-    g_res["ratio_dedupe"] = rate / base if rate and base else None
-    same = np.concatenate(dedupe_success) == np.concatenate(success["cached"])
-    g_res["dedupe_same"] = f"{int(same.sum())}/{same.size}"
-    g_res["dedupe_cache_hits"], g_res["dedupe_cache_misses"] = (
-        dedupe_cache.hits,
-        dedupe_cache.misses,
-    )
-    res["ratio_generation"] = g_res["ratio"]
-    res["ratio_generation_dedupe"] = g_res["ratio_dedupe"]
+    g_res["clones"] = n_gen - len(seen["uncached"])
+    for name in gen:
+        if gen[name]["dedupe"]:  # its episodes count as scored; these ran
+            g_res[f"{name}_episodes_run"] = len(seen[name]) * n_seeds
+    if "cached_skip" in gen and "cached_skip_dedupe" in gen:
+        same = np.concatenate(success["cached_skip_dedupe"]) == np.concatenate(
+            success["cached_skip"]
+        )
+        g_res["dedupe_same"] = f"{int(same.sum())}/{same.size}"
+    res["ratio_generation"] = g_res["ratio"]["cached_skip_dedupe"]
     if not test:
         res["max_rss_mib"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
         return res
@@ -192,10 +192,10 @@ def run(
         ("mutant_a", [mutants[0]], clean, None),
         ("mutant_b", [mutants[1]], clean, None),
     ][:n_pol]
-    test = arms()
-    evs = {name: Evaluator(a["config"], encoder) for name, a in test.items()}
-    success = {name: [] for name in test}
-    cpu = dict.fromkeys(test, 0.0)
+    tst = _arms(config, TEST_LEAN if lean else TEST_ARMS)
+    evs = {name: Evaluator(a["config"], encoder) for name, a in tst.items()}
+    success = {name: [] for name in tst}
+    cpu = dict.fromkeys(tst, 0.0)
     try:
         for _, gs, eps, baseline in plan:
             for name, ev in evs.items():
@@ -205,29 +205,72 @@ def run(
     finally:
         for ev in evs.values():
             ev.close()
-    res["test"] = _summary(test, success, cpu, f"{n_pol} policies x {n_test} test seeds")
+    res["test"] = _summary(tst, success, cpu, f"{n_pol} policies x {n_test} test seeds")
     res["test"]["policies"] = [name for name, *_ in plan]
     res["max_rss_mib"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
-    res["ratio_test"] = res["test"]["ratio"]
+    res["ratio_test"] = res["test"]["ratio"]["cached_skip"]
     return res
 
 
+#: Arms: name -> (settled-scene cache, skipped lift, dedupe). ``uncached`` is the port before
+#: issue 24 (every reset settles its drop, every grasp lifts fully): the baseline of every ratio.
+ARM_SETTINGS = {
+    "uncached": (False, False, False),
+    "cached": (True, False, False),
+    "cached_skip": (True, True, False),
+    "cached_skip_dedupe": (True, True, True),
+}
+GENERATION_ARMS = ("uncached", "cached", "cached_skip", "cached_skip_dedupe")
+GENERATION_LEAN = ("uncached", "cached_skip_dedupe")
+TEST_ARMS = ("uncached", "cached", "cached_skip")
+TEST_LEAN = ("uncached", "cached_skip")
+
+
+def _arms(config: Any, names: tuple[str, ...]) -> dict[str, Any]:
+    """Each arm's config (with its own fresh, empty cache) and whether it dedupes."""
+    from evodevo.envs.scene_cache import SceneCache
+
+    out = {}
+    for name in names:
+        cached, skip, dedupe = ARM_SETTINGS[name]
+        cache = SceneCache() if cached else None
+        cfg = _with_env(
+            config, scene_cache=cache if cache is not None else False, skip_empty_lift=skip
+        )
+        out[name] = {"config": cfg, "cache": cache, "dedupe": dedupe}
+    return out
+
+
 def _summary(
-    arms: dict[str, Any], success: dict[str, list[np.ndarray]], cpu: dict[str, float], what: str
+    arms: dict[str, Any],
+    success: dict[str, list[np.ndarray]],
+    cpu: dict[str, float],
+    what: str,
 ) -> dict[str, Any]:
     out: dict[str, Any] = {"workload": what}
-    for name in arms:
+    for name, arm in arms.items():
         n = int(sum(len(s) for s in success[name]))
         out[f"{name}_episodes"] = n
         out[f"{name}_cpu_s"] = round(cpu[name], 2)
         out[f"{name}_episodes_per_cpu_s"] = n / cpu[name] if cpu[name] > 0 else None
         out[f"{name}_success"] = float(np.mean(np.concatenate(success[name])))
-    a, b = out["cached_episodes_per_cpu_s"], out["uncached_episodes_per_cpu_s"]
-    out["ratio"] = a / b if a and b else None
-    same = np.concatenate(success["cached"]) == np.concatenate(success["uncached"])
-    out["same_success"] = f"{int(same.sum())}/{same.size}"
-    cache = arms["cached"]["cache"]
-    out["cache_hits"], out["cache_misses"] = cache.hits, cache.misses
+        if arm["cache"] is not None:
+            out[f"{name}_cache_hits_misses"] = [arm["cache"].hits, arm["cache"].misses]
+    base = out["uncached_episodes_per_cpu_s"]
+    out["ratio"] = {
+        name: (out[f"{name}_episodes_per_cpu_s"] / base if base else None)
+        for name in arms
+        if name != "uncached"
+    }
+    ref = np.concatenate(success["uncached"])
+    out["same_success_as_uncached"] = {
+        name: f"{int((np.concatenate(success[name]) == ref).sum())}/{ref.size}"
+        for name in arms
+        if name != "uncached"
+    }
+    if "cached" in arms and "cached_skip" in arms:
+        same = np.concatenate(success["cached_skip"]) == np.concatenate(success["cached"])
+        out["skip_same_as_cached"] = f"{int(same.sum())}/{same.size}"
     return out
 
 
@@ -241,6 +284,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--policies", type=int, default=None)
     ap.add_argument("--test-seeds", type=int, default=None)
     ap.add_argument("--no-test", action="store_true", help="time the generation only")
+    ap.add_argument(
+        "--lean", action="store_true", help="only the uncached arm and the arm with everything on"
+    )
     ap.add_argument("--run", default=str(DEFAULT_RUN), help="GRN run directory")
     ap.add_argument("--out", default=None, help="write the JSON result here too")
     args = ap.parse_args(argv)
@@ -252,6 +298,7 @@ def main(argv: list[str] | None = None) -> None:
         args.test_seeds,
         args.run,
         test=not args.no_test,
+        lean=args.lean,
     )
     if not args.json:
         for k, v in res.items():

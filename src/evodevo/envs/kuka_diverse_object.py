@@ -23,7 +23,10 @@ of ``pybullet`` 3.2.7, with these differences:
 * continuous actions are clipped to [−1, 1];
 * ``scene_cache`` (default on): the settled scene of a drop is simulated once per process (or
   per cache folder) and then written into the bodies instead of simulated again
-  (:mod:`evodevo.envs.scene_cache`; docs/kuka_env.md, "Settled-scene cache").
+  (:mod:`evodevo.envs.scene_cache`; docs/kuka_env.md, "Settled-scene cache");
+* ``skip_empty_lift`` (default on): the automatic grasp's lift stops once nothing is held and
+  the arm is clear above every object, when the rest of it cannot change the outcome
+  (:mod:`evodevo.envs.kuka_grasp`; docs/kuka_env.md, "Skipped lift").
 
 >>> import gymnasium as gym, evodevo.envs
 >>> env = gym.make("evodevo/KukaDiverseObject-v0")
@@ -50,6 +53,7 @@ from gymnasium.utils.seeding import np_random
 
 from evodevo.envs import kuka_arm
 from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, WORKSPACE_X, WORKSPACE_Y, KukaArm
+from evodevo.envs.kuka_grasp import GRASP_CLOSE_STEPS, GRASP_LIFT_STEPS, grasp
 from evodevo.envs.objects import object_files
 from evodevo.envs.scene_cache import (
     CACHE_DIR_ENV,
@@ -69,6 +73,8 @@ __all__ = [
     "TIME_STEP",
     "SETTLE_STEPS",
     "GRASP_HEIGHT",
+    "GRASP_CLOSE_STEPS",
+    "GRASP_LIFT_STEPS",
     "SUCCESS_HEIGHT",
     "RENDER_SIZE",
 ]
@@ -85,9 +91,6 @@ SETTLE_STEPS = 500
 DROP_HEIGHT = 0.15
 #: The automatic grasp starts when the end effector is at or below this height (m).
 GRASP_HEIGHT = 0.1
-#: Simulation steps of closing the fingers, then of lifting, in the automatic grasp.
-GRASP_CLOSE_STEPS = 500
-GRASP_LIFT_STEPS = 500
 #: Reward 1 when an object's base is above this height (m) after a step.
 SUCCESS_HEIGHT = 0.2
 #: End-effector displacement (m) per unit action; the gripper turns 0.25 rad per unit action.
@@ -180,12 +183,24 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             (docs/kuka_env.md, "Settled-scene cache"). ``True`` (default) uses the process-wide
             cache of ``scene_cache_dir``; a :class:`~evodevo.envs.scene_cache.SceneCache` uses
             that one; ``False`` is the port without it: the objects settle in the episode's own
-            world (bit for bit the original's physics, ``deterministic_pairs=False``), whose
-            contact caches an episode then inherits, so its episodes differ from the cached
-            ones in the last bits (and, the grasp being chaotic, some outcomes; same rates).
+            world (bit for bit the original's physics with ``deterministic_pairs=False`` and
+            ``skip_empty_lift=False``), whose contact caches an episode then inherits, so its
+            episodes differ from the cached ones in the last bits (and, the grasp being
+            chaotic, some outcomes; same rates).
         scene_cache_dir: Folder of on-disk scenes shared by runs and sessions (created if
             missing); ``None`` reads ``$EVODEVO_SCENE_CACHE_DIR``, unset means memory only.
         scene_cache_entries: Scenes kept in memory per process (about 2 KB each).
+        skip_empty_lift: Stop the automatic grasp's 500-step lift early once no object
+            touches the arm, the arm's lowest point is clear above every object and no object
+            can reach the success height by itself (:mod:`evodevo.envs.kuka_grasp`;
+            docs/kuka_env.md, "Skipped lift"): the rest of the lift cannot change the outcome,
+            so reward, ``terminated`` and ``is_success`` are unchanged, but the terminal
+            observation and ``info["proprio"]`` of such a failed grasp show the arm part of the
+            way up instead of at the top of the lift. ``False`` always lifts fully, as the
+            original; the GRN evaluator keeps it off when the training fitness reads the
+            gripper's end pose (``evaluation.distance_weight`` > 0). ``grasps``,
+            ``lifts_skipped`` and ``lift_steps_skipped`` count this instance's grasps, the lifts
+            stopped early and the simulation steps saved.
 
     Raises:
         ConfigError: An option is out of range.
@@ -212,6 +227,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         scene_cache: bool | SceneCache = True,
         scene_cache_dir: str | None = None,
         scene_cache_entries: int = DEFAULT_MAX_ENTRIES,
+        skip_empty_lift: bool = True,
     ) -> None:
         _check_int("num_objects", num_objects, 1)
         _check_int("max_steps", max_steps, 1)
@@ -224,6 +240,8 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError(
                 f"scene_cache={scene_cache!r} must be true, false or a SceneCache instance"
             )
+        if not isinstance(skip_empty_lift, (bool, np.bool_)):
+            raise ConfigError(f"skip_empty_lift={skip_empty_lift!r} must be true or false")
         _check_unit("camera_random", camera_random)
         _check_unit("block_random", block_random)
         if render_mode not in (None, "rgb_array"):
@@ -258,6 +276,10 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
 
         self.deterministic_pairs = bool(deterministic_pairs)
         self.rebuild_every = int(rebuild_every)
+        self.skip_empty_lift = bool(skip_empty_lift)
+        self.grasps = 0
+        self.lifts_skipped = 0
+        self.lift_steps_skipped = 0
         self.scene_cache: SceneCache | None
         if isinstance(scene_cache, SceneCache):
             self.scene_cache = scene_cache
@@ -541,22 +563,18 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         return DV * a[0], DV * a[1], DV * a[2], DA * a[3]
 
     def _grasp(self) -> None:
-        """Close the fingers for 500 steps, then lift for 500 steps, as the original does."""
-        cid = self._cid
-        arm = self._arm
-        finger_angle = OPEN_FINGER_ANGLE
-        for _ in range(GRASP_CLOSE_STEPS):
-            arm.apply_action(0.0, 0.0, 0.0, 0.0, finger_angle)
-            p.stepSimulation(physicsClientId=cid)
-            finger_angle -= OPEN_FINGER_ANGLE / 100.0
-            if finger_angle < 0:
-                finger_angle = 0.0
-        for _ in range(GRASP_LIFT_STEPS):
-            arm.apply_action(0.0, 0.0, 0.001, 0.0, finger_angle)
-            p.stepSimulation(physicsClientId=cid)
-            finger_angle -= OPEN_FINGER_ANGLE / 100.0
-            if finger_angle < 0:
-                finger_angle = 0.0
+        """Close the fingers for 500 steps, then lift for 500 (:func:`kuka_grasp.grasp`)."""
+        res = grasp(
+            self._cid,
+            self._arm,
+            self._object_uids,
+            skip_empty_lift=self.skip_empty_lift,
+            success_height=SUCCESS_HEIGHT,
+            gravity=GRAVITY,
+        )
+        self.grasps += 1
+        self.lifts_skipped += int(res.skipped > 0)
+        self.lift_steps_skipped += res.skipped
         self._attempted_grasp = True
 
     def _reward(self) -> float:

@@ -52,6 +52,7 @@ __all__ = [
     "EpisodeResults",
     "Evaluator",
     "make_env",
+    "evaluator_env_kwargs",
     "genome_key",
     "action_dims",
     "is_vector_observation",
@@ -185,6 +186,22 @@ def _proprio(info: dict[str, Any], n: int) -> np.ndarray:
     if p.shape[0] != n:
         raise EvodevoError(f"info['proprio'] has {p.shape[0]} values; the controller expects {n}")
     return p
+
+
+def evaluator_env_kwargs(config: Any) -> dict[str, Any]:
+    """The keyword arguments the :class:`Evaluator` makes its environments with.
+
+    ``config.env.kwargs``, plus ``skip_empty_lift=False`` for the Kuka port when the training
+    fitness reads the gripper's end pose (``evaluation.distance_weight`` > 0) and the config
+    does not choose: a skipped lift ends a failed grasp with the arm part of the way up, which
+    moves :func:`grasp_distance` by centimetres (docs/kuka_env.md, "Skipped lift"). Outcomes
+    are the same either way.
+    """
+    kwargs = dict(config.env.kwargs)
+    weight = float(getattr(getattr(config, "evaluation", None), "distance_weight", 0.0) or 0.0)
+    if config.env.id == "evodevo/KukaDiverseObject-v0" and weight > 0:
+        kwargs.setdefault("skip_empty_lift", False)
+    return kwargs
 
 
 def grasp_distance(env: gym.Env[Any, Any]) -> float:
@@ -494,7 +511,8 @@ class Evaluator:
     ) -> None:
         self.config = config
         self.key = uuid.uuid4().hex
-        probe = make_env(config.env.id, config.env.kwargs)
+        env_kwargs = evaluator_env_kwargs(config)
+        probe = make_env(config.env.id, env_kwargs)
         try:
             self.action_space = probe.action_space
             self.n_actions = action_dims(probe.action_space)
@@ -511,7 +529,7 @@ class Evaluator:
             backend,
             workers,
             initializer=_init_worker,
-            initargs=(self.key, config.env.id, dict(config.env.kwargs), state),
+            initargs=(self.key, config.env.id, env_kwargs, state),
             max_retries=max_retries,
             address=address,
         )
