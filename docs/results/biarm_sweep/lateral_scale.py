@@ -5,7 +5,7 @@ with scale 1), builds the MountainCar column with the given lateral scale and tr
 the run did (same seeds, same episodes, ``dqn.keep`` as configured), then evaluates its
 greedy return on the evaluation seeds. One JSON line per call is appended to ``--out``.
 
-    python docs/results/biarm_sweep/lateral_scale.py RUN SCALE [--out FILE] [--diagnose]
+    python docs/results/biarm_sweep/lateral_scale.py RUN SCALE [--init zero] [--out FILE] [--diagnose]
 
 ``--diagnose`` only prints the new column's initial Q-values on 500 random MountainCar states
 (no training): the size of what the frozen features do to the column before it learns.
@@ -37,11 +37,14 @@ def main() -> None:
     ap.add_argument("scale", type=float)
     ap.add_argument("--out", default=None)
     ap.add_argument("--diagnose", action="store_true")
+    ap.add_argument("--init", default=None, help="network.lateral_init of the new column")
     args = ap.parse_args()
     torch.set_num_threads(1)
     saved = dict(read_json(f"{args.run}/config.json")["config"])
     variant, seed = str(saved.pop("variant")), int(saved.pop("seed"))
     saved["network"] = {**saved["network"], "lateral_scale": args.scale}
+    if args.init is not None:
+        saved["network"]["lateral_init"] = args.init
     cfg = from_dict(BiarmConfig, saved)
     specs, d_max = resolve_tasks(cfg)
     task = 2
@@ -92,6 +95,7 @@ def main() -> None:
         "variant": variant,
         "seed": seed,
         "lateral_scale": args.scale,
+        "lateral_init": cfg.network.lateral_init,
         "episodes": spec.episodes,
         "final_return": float(np.mean(final)),
         "last_network_return": float(np.mean(last)),

@@ -116,7 +116,8 @@ def train(
     config: Path | None = typer.Option(None, help="YAML config (configs/biarm.yaml keys)."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
     protocol: str | None = typer.Option(
-        None, help="DQN protocol preset (SPEC 1.6): default or v1 (the first results' protocol)."
+        None,
+        help="DQN protocol preset (SPEC 1.6): default, v2 (default with unscaled laterals) or v1 (the first results' protocol).",
     ),
     resume: bool = typer.Option(
         False,
@@ -251,7 +252,8 @@ def compare(
     config: Path | None = typer.Option(None, help="YAML config."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
     protocol: str | None = typer.Option(
-        None, help="DQN protocol preset (SPEC 1.6): default or v1 (the first results' protocol)."
+        None,
+        help="DQN protocol preset (SPEC 1.6): default, v2 (default with unscaled laterals) or v1 (the first results' protocol).",
     ),
     backend: str = typer.Option(
         "local", help="local (process pool) or ray (one Ray task per run)."

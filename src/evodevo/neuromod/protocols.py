@@ -1,16 +1,23 @@
 """Named DQN protocols: the details Table 3.1 leaves open, as presets (SPEC §1.6; issue 21).
 
 A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig`'s defaults
-(only keys Table 3.1 does not fix). ``default`` is the config's defaults, the protocol the
-measured sweep picked (``docs/results/biarm.md``); ``v1`` is the first protocol, under which
-the committed first results (``docs/results/thesis/biarm``) were measured: ε × 0.995 per
-*episode*, a hard target copy every 500 gradient steps, no double Q, the last network kept.
-``configs/biarm.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the same two configs as files.
+(only keys Table 3.1 and SPEC §1.2 do not fix). ``default`` is the config's defaults, the
+protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
+a soft target (τ 0.005), the best validated network kept, and the earlier columns'
+activations scaled by ``network.lateral_scale`` where a new column reads them. ``v2`` is the
+same without that scale (1.0), under which ``docs/results/thesis/biarm_v2`` was measured;
+``v1`` is the first protocol, under which the committed first results
+(``docs/results/thesis/biarm``) were measured: ε × 0.995 per *episode*, a hard target copy
+every 500 gradient steps, no double Q, the last network kept, unscaled laterals.
+``configs/biarm.yaml``, ``configs/biarm_v2.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
+same three configs as files.
 
 >>> protocol_config("v1").dqn.eps_unit
 'episode'
 >>> protocol_config("default").dqn.eps_unit
 'step'
+>>> protocol_config("v2").network.lateral_scale
+1.0
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
+    "v2": {"network": {"lateral_scale": 1.0}},
     "v1": {
         "dqn": {
             "eps_unit": "episode",

@@ -46,7 +46,9 @@ class BiarmBudget:
     task_episodes: dict[str, int] = doc(
         {}, "training episodes of named tasks, instead of thesis episodes x episodes_scale"
     )
-    protocol: str = doc("default", "DQN protocol of the grid in biarm/ (SPEC §1.6): default, v1")
+    protocol: str = doc(
+        "default", "DQN protocol of the grid in biarm/ (SPEC §1.6): default, v2, v1"
+    )
     other_protocols: dict[str, str] = doc(
         {"biarm_v1": "v1"},
         "more grids of the same variants and seeds under other protocols: folder -> protocol",
