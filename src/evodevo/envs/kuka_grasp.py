@@ -22,7 +22,7 @@ Not touching the arm right after the fingers closed is *not* enough: the fingert
 on the tray floor with the fingers held open by it, and close on an object only when the lift
 frees them (in 78 grasps of three policies, 32 had no object contact after closing and 15 of
 those succeeded). The arm clears every object about 230 of the 500 lift steps in, so a failed
-grasp saves about 270 steps. What changes is only the terminal state of a failed grasp: the arm
+grasp saves about 260 steps. What changes is only the terminal state of a failed grasp: the arm
 ends part of the way up instead of at the top of the lift (docs/kuka_env.md, "Skipped lift").
 
 >>> from evodevo.envs import KukaDiverseObjectEnv
