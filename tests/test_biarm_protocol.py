@@ -212,9 +212,9 @@ def test_config_files_match_the_protocols():
     assert to_dict(from_dict(BiarmConfig, default)) == to_dict(protocol_config("default"))
     v1 = yaml.safe_load((ROOT / "configs" / "biarm_spec_v1.yaml").read_text())
     assert to_dict(from_dict(BiarmConfig, v1)) == to_dict(protocol_config("v1"))
-    v2 = yaml.safe_load((ROOT / "configs" / "biarm_v2.yaml").read_text())
-    assert to_dict(from_dict(BiarmConfig, v2)) == to_dict(protocol_config("v2"))
-    assert set(PROTOCOLS) == {"default", "v2", "v1"}
+    scaled = yaml.safe_load((ROOT / "configs" / "biarm_scaled.yaml").read_text())
+    assert to_dict(from_dict(BiarmConfig, scaled)) == to_dict(protocol_config("scaled"))
+    assert set(PROTOCOLS) == {"default", "scaled", "v1"}
 
 
 def _strip(obj: Any) -> Any:

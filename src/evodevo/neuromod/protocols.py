@@ -3,21 +3,21 @@
 A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig`'s defaults
 (only keys Table 3.1 and SPEC §1.2 do not fix). ``default`` is the config's defaults, the
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
-a soft target (τ 0.005), the best validated network kept, and the earlier columns'
-activations scaled by ``network.lateral_scale`` where a new column reads them. ``v2`` is the
-same without that scale (1.0), under which ``docs/results/thesis/biarm_v2`` was measured;
-``v1`` is the first protocol, under which the committed first results
+a soft target (τ 0.005), the best validated network kept. ``scaled`` is a candidate: the same
+with the earlier columns' activations scaled by ``network.lateral_scale`` = 0.001 where a new
+column reads them (measured on MountainCar third in the sequence only, not yet on the whole
+sequence); ``v1`` is the first protocol, under which the committed first results
 (``docs/results/thesis/biarm``) were measured: ε × 0.995 per *episode*, a hard target copy
 every 500 gradient steps, no double Q, the last network kept, unscaled laterals.
-``configs/biarm.yaml``, ``configs/biarm_v2.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
+``configs/biarm.yaml``, ``configs/biarm_scaled.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
 same three configs as files.
 
 >>> protocol_config("v1").dqn.eps_unit
 'episode'
 >>> protocol_config("default").dqn.eps_unit
 'step'
->>> protocol_config("v2").network.lateral_scale
-1.0
+>>> protocol_config("scaled").network.lateral_scale
+0.001
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    "v2": {"network": {"lateral_scale": 1.0}},
+    "scaled": {"network": {"lateral_scale": 0.001}},
     "v1": {
         "dqn": {
             "eps_unit": "episode",
