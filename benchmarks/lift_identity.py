@@ -35,6 +35,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+try:
+    from benchmarks.scene_identity import load_grn, play
+except ModuleNotFoundError:  # run as `python benchmarks/lift_identity.py`
+    from scene_identity import load_grn, play  # type: ignore[no-redef]
+
 __all__ = ["POLICIES", "run", "main"]
 
 POLICIES = ("zero", "turn", "random", "grn")
@@ -76,24 +81,7 @@ class _Recorder(gym.Wrapper):  # type: ignore[type-arg]
 
 
 def _episode(env: _Recorder, seed: int, policy: str, grn: Any) -> dict[str, Any]:
-    if policy == "grn":
-        from evodevo.grn.evaluator import Episode, run_episodes
-
-        encoder, controller, genome = grn
-        run_episodes([env], encoder, controller, [genome], [Episode(seed)])
-        return env.result()
-    rng = np.random.default_rng([seed, 1])
-    env.reset(seed=seed)
-    done = False
-    while not done:
-        if policy == "zero":
-            a = np.zeros(3, np.float32)
-        elif policy == "turn":
-            a = np.array([0.0, 0.0, -1.0], np.float32)
-        else:
-            a = rng.uniform(-1.0, 1.0, 3).astype(np.float32)
-        _, _, term, trunc, _ = env.step(a)
-        done = term or trunc
+    play(env, seed, policy, grn)
     return env.result()
 
 
@@ -107,13 +95,7 @@ def run(
     from evodevo.envs import KukaDiverseObjectEnv
     from evodevo.envs.scene_cache import SceneCache
 
-    grn = None
-    if "grn" in policies:
-        from evodevo.grn.controller import make_controller
-        from evodevo.grn.evaluation import load_run
-
-        loaded = load_run(run_dir)
-        grn = (loaded.encoder, make_controller(loaded.config, 3), loaded.genome)
+    grn = load_grn(policies, run_dir)
     cache = SceneCache()
     envs: dict[tuple[bool, str], _Recorder] = {}
     for test in (False, True):

@@ -65,13 +65,14 @@ class _Recorder(gym.Wrapper):  # type: ignore[type-arg]
         return self.digest.hexdigest()[:16]
 
 
-def _episode(env: _Recorder, seed: int, policy: str, grn: Any) -> tuple[str, float]:
+def play(env: gym.Env, seed: int, policy: str, grn: Any) -> None:  # type: ignore[type-arg]
+    """One episode of ``policy`` on seed ``seed`` (``grn``: :func:`load_grn`'s result)."""
     if policy == "grn":
         from evodevo.grn.evaluator import Episode, run_episodes
 
-        config, encoder, controller, genome = grn
+        encoder, controller, genome = grn
         run_episodes([env], encoder, controller, [genome], [Episode(seed)])
-        return env.finish(), env.reward
+        return
     rng = np.random.default_rng([seed, 1])
     env.reset(seed=seed)
     done = False
@@ -84,6 +85,21 @@ def _episode(env: _Recorder, seed: int, policy: str, grn: Any) -> tuple[str, flo
             a = rng.uniform(-1.0, 1.0, 3).astype(np.float32)
         _, _, term, trunc, _ = env.step(a)
         done = term or trunc
+
+
+def load_grn(policies: tuple[str, ...], run_dir: str | Path) -> Any:
+    """(encoder, controller, genome) of the committed run when ``grn`` is a policy, else None."""
+    if "grn" not in policies:
+        return None
+    from evodevo.grn.controller import make_controller
+    from evodevo.grn.evaluation import load_run
+
+    loaded = load_run(run_dir)
+    return loaded.encoder, make_controller(loaded.config, 3), loaded.genome
+
+
+def _episode(env: _Recorder, seed: int, policy: str, grn: Any) -> tuple[str, float]:
+    play(env, seed, policy, grn)
     return env.finish(), env.reward
 
 
@@ -98,13 +114,7 @@ def run(
     from evodevo.envs import KukaDiverseObjectEnv
     from evodevo.envs.scene_cache import SceneCache
 
-    grn = None
-    if "grn" in policies:
-        from evodevo.grn.controller import make_controller
-        from evodevo.grn.evaluation import load_run
-
-        loaded = load_run(run_dir)
-        grn = (loaded.config, loaded.encoder, make_controller(loaded.config, 3), loaded.genome)
+    grn = load_grn(policies, run_dir)
     cache = SceneCache()
     envs: dict[tuple[bool, str], _Recorder] = {}
     for test in (False, True):
