@@ -177,3 +177,27 @@ def test_retention_bounds(initial, final):
     elif initial < 0 and final < 0:
         # >= 0, not > 0: a denormal over a normal number underflows to 0 (-5e-324 / -2)
         assert r >= 0 and (r <= 1) == (final <= initial)
+
+
+def test_eq_3_7_relative_to_rest_gives_eta_base_at_rest():
+    """``modules.lr_relative``: Eq. 3.7 divided by its resting value (issue 21): eta_base when
+    every module rests at ``initial_state``, scaled by the same state-dependent factor as Eq.
+    3.7 otherwise; Eq. 3.7 as written gives eta_base / 2 at rest. PNN ignores both."""
+    from evodevo.config import from_dict
+    from evodevo.errors import ConfigError
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import BiarmConfig
+    from evodevo.neuromod.variants import get_variant
+
+    plain = BiarmAgent(BiarmConfig(), get_variant("biarm"), obs_dim=4, seed=0)
+    rel_cfg = from_dict(BiarmConfig, {"modules": {"lr_relative": True}})
+    rel = BiarmAgent(rel_cfg, get_variant("biarm"), obs_dim=4, seed=0)
+    assert plain.lr() == pytest.approx(0.0005)
+    assert rel.lr() == pytest.approx(0.001)
+    for agent in (plain, rel):
+        agent.modules._s[:] = torch.tensor([0.9, 0.1, 0.7, 0.3])  # internal layout
+    assert rel.lr() == pytest.approx(plain.lr() / 0.5)
+    pnn = BiarmAgent(rel_cfg, get_variant("pnn"), obs_dim=4, seed=0)
+    assert pnn.lr() == 0.001
+    with pytest.raises(ConfigError, match="lr_relative"):
+        from_dict(BiarmConfig, {"modules": {"lr_relative": True, "initial_state": 0.0}})

@@ -124,3 +124,37 @@ def test_distance_shaped_training_keeps_the_full_lift() -> None:
         shaped, env=dataclasses.replace(cfg.env, kwargs={"skip_empty_lift": True})
     )
     assert evaluator_env_kwargs(chosen)["skip_empty_lift"] is True
+
+
+def test_distance_at_grasp_reads_the_reach_and_keeps_the_skipped_lift() -> None:
+    """``evaluation.distance_at: grasp`` reads the distance when the automatic grasp starts
+    (recorded by the env, NaN before), so the skipped lift stays on; bad values are refused."""
+    import dataclasses
+
+    from evodevo.grn.config import EvaluationConfig, GrnConfig
+    from evodevo.grn.evaluator import evaluator_env_kwargs, grasp_distance
+
+    cfg = GrnConfig()
+    at_grasp = dataclasses.replace(
+        cfg,
+        evaluation=dataclasses.replace(cfg.evaluation, distance_weight=1.0, distance_at="grasp"),
+    )
+    assert "skip_empty_lift" not in evaluator_env_kwargs(at_grasp)
+    with pytest.raises(ConfigError, match="distance_at"):
+        EvaluationConfig(distance_at="start").validate()
+    env = KukaDiverseObjectEnv(max_steps=8)
+    try:
+        env.reset(seed=SUCCEEDS)
+        assert np.isnan(env.distance_at_grasp)
+        done = False
+        while not done:
+            _, _, term, trunc, info = env.step(DOWN)
+            done = term or trunc
+        assert term and np.isfinite(env.distance_at_grasp)
+        assert grasp_distance(env, "grasp") == env.distance_at_grasp
+        assert info["is_success"]  # a grasped object was within the fingers' reach
+        assert env.distance_at_grasp < 0.08  # object base to end effector; 5.7 cm here
+        env.reset(seed=FAILS)
+        assert np.isnan(env.distance_at_grasp)
+    finally:
+        env.close()

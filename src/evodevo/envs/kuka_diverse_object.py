@@ -296,6 +296,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._ready = False
         self._attempted_grasp = False
         self._env_step = 0
+        self.distance_at_grasp = float("nan")
+        """Horizontal gripper-to-nearest-object distance (m) when the automatic grasp started
+        (NaN before it): for a shaped *training* fitness only (``evaluation.distance_at``)."""
         self._view_matrix: Any = None
         self._proj_matrix: Any = None
 
@@ -395,6 +398,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         self._attempted_grasp = False
         self._env_step = 0
+        self.distance_at_grasp = float("nan")
 
         # Newest first: PyBullet reuses freed body ids last-in first-out, so the next objects get
         # the same ids (and the same solver order) as in a freshly built world.
@@ -564,6 +568,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _grasp(self) -> None:
         """Close the fingers for 500 steps, then lift for 500 (:func:`kuka_grasp.grasp`)."""
+        self.distance_at_grasp = self.nearest_object_distance()
         res = grasp(
             self._cid,
             self._arm,
@@ -576,6 +581,16 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.lifts_skipped += int(res.skipped > 0)
         self.lift_steps_skipped += res.skipped
         self._attempted_grasp = True
+
+    def nearest_object_distance(self) -> float:
+        """Horizontal distance (m) from the end effector to the nearest object's base, read from
+        the simulator: for a shaped *training* fitness only, never an observation."""
+        ee = np.asarray(self._arm.end_effector_position()[:2])
+        pos = [
+            p.getBasePositionAndOrientation(u, physicsClientId=self._cid)[0]
+            for u in self._object_uids
+        ]
+        return float(min(np.hypot(*(np.asarray(q[:2]) - ee)) for q in pos)) if pos else float("nan")
 
     def _reward(self) -> float:
         for uid in self._object_uids:

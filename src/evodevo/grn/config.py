@@ -19,6 +19,9 @@ from typing import Any
 from evodevo.config import doc
 from evodevo.errors import ConfigError
 
+DISTANCE_AT = ("end", "grasp")
+"""Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
+
 __all__ = [
     "DynamicsConfig",
     "SensorConfig",
@@ -30,6 +33,7 @@ __all__ = [
     "OpenLoopConfig",
     "NeuromodConfig",
     "GrnConfig",
+    "DISTANCE_AT",
 ]
 
 
@@ -225,6 +229,11 @@ class EvaluationConfig:
         "object distance at the episode's end (units of 5 cm, capped at 20 cm), read from the "
         "simulator during training only (0 = Eq. 4.6 alone, the thesis)",
     )
+    distance_at: str = doc(
+        "end",
+        "when the shaped fitness reads that distance: end (after the episode, the automatic "
+        "grasp's lift included) or grasp (when the automatic grasp starts: the reach alone)",
+    )
 
     def validate(self) -> None:
         _check_range("episodes", self.episodes, 1)
@@ -233,6 +242,11 @@ class EvaluationConfig:
         _check_range("test_episodes", self.test_episodes, 1)
         _check_range("lockstep", self.lockstep, 1)
         _check_range("distance_weight", self.distance_weight, 0.0)
+        if self.distance_at not in DISTANCE_AT:
+            raise ConfigError(
+                f"evaluation.distance_at must be one of {list(DISTANCE_AT)}, got "
+                f"{self.distance_at!r}"
+            )
 
 
 @dataclass

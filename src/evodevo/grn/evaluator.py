@@ -192,33 +192,38 @@ def evaluator_env_kwargs(config: Any) -> dict[str, Any]:
     """The keyword arguments the :class:`Evaluator` makes its environments with.
 
     ``config.env.kwargs``, plus ``skip_empty_lift=False`` for the Kuka port when the training
-    fitness reads the gripper's end pose (``evaluation.distance_weight`` > 0) and the config
-    does not choose: a skipped lift ends a failed grasp with the arm part of the way up, which
+    fitness reads the gripper's end pose (``evaluation.distance_weight`` > 0 with
+    ``evaluation.distance_at: end``) and the config does not choose: a skipped lift ends a failed grasp with the arm part of the way up, which
     moves :func:`grasp_distance` by centimetres (docs/kuka_env.md, "Skipped lift"). Outcomes
     are the same either way.
     """
     kwargs = dict(config.env.kwargs)
-    weight = float(getattr(getattr(config, "evaluation", None), "distance_weight", 0.0) or 0.0)
-    if config.env.id == "evodevo/KukaDiverseObject-v0" and weight > 0:
+    evaluation = getattr(config, "evaluation", None)
+    weight = float(getattr(evaluation, "distance_weight", 0.0) or 0.0)
+    at_end = getattr(evaluation, "distance_at", "end") == "end"
+    if config.env.id == "evodevo/KukaDiverseObject-v0" and weight > 0 and at_end:
         kwargs.setdefault("skip_empty_lift", False)
     return kwargs
 
 
-def grasp_distance(env: gym.Env[Any, Any]) -> float:
+def grasp_distance(env: gym.Env[Any, Any], at: str = "end") -> float:
     """Horizontal distance (m) from the gripper to the nearest object, read from the simulator.
 
-    For the shaped *training* fitness only (SPEC §2.4, ``evaluation.distance_weight``); NaN
-    when the env is not the Kuka port.
+    For the shaped *training* fitness only (SPEC §2.4, ``evaluation.distance_weight``). ``at``
+    (``evaluation.distance_at``): ``"end"``, after the episode (the automatic grasp's lift
+    included); ``"grasp"``, when the automatic grasp started (the reach itself, before the
+    fingers and the lift move anything; an episode that ended without a grasp counts its end).
+    NaN when the env is not the Kuka port.
     """
     u: Any = env.unwrapped
+    if at == "grasp":
+        d = getattr(u, "distance_at_grasp", float("nan"))
+        if np.isfinite(d):
+            return float(d)
     arm, uids = getattr(u, "_arm", None), getattr(u, "_object_uids", None)
     if arm is None or not uids:
         return float("nan")
-    import pybullet as p
-
-    ee = np.asarray(arm.end_effector_position()[:2])
-    pos = [p.getBasePositionAndOrientation(uid, physicsClientId=u._cid)[0] for uid in uids]
-    return float(min(np.hypot(*(np.asarray(q[:2]) - ee)) for q in pos))
+    return float(u.nearest_object_distance())
 
 
 def _vector_range(policy: Any) -> tuple[float, float]:
@@ -236,6 +241,7 @@ def run_episodes(
     record: bool = False,
     vector_range: tuple[float, float] | None = None,
     measure_distance: bool = False,
+    distance_at: str = "end",
 ) -> dict[str, Any]:
     """Run ``len(episodes)`` episodes in lockstep, slot b driving ``envs[b]`` with ``genomes[b]``.
 
@@ -244,6 +250,7 @@ def run_episodes(
             (default: the policy's ``config.sensors.vector_range``, else [-1, 1]).
         measure_distance: also return ``distance``, the gripper-to-nearest-object distance at
             each episode's end (:func:`grasp_distance`; training shaping only).
+        distance_at: when that distance is read (:func:`grasp_distance`'s ``at``).
 
     Returns:
         ``{"reward", "success", "steps"}`` arrays of length B, and with ``record`` the per-step
@@ -310,7 +317,7 @@ def run_episodes(
                 active[slot] = False
                 success[slot] = bool(info.get("is_success", float(r) > 0))
                 if measure_distance:
-                    distance[slot] = grasp_distance(env)
+                    distance[slot] = grasp_distance(env, distance_at)
         if observe is not None:
             observe(state, idx, step_r)
         if record:
@@ -402,6 +409,7 @@ def _run_task(task: _Task) -> dict[str, np.ndarray]:
             [task.episodes[i] for i in ids],
             n_proprio=task.config.sensors.n_proprio,
             measure_distance=task.measure_distance,
+            distance_at=getattr(task.config.evaluation, "distance_at", "end"),
         )
         for k in out:
             out[k][ids] = res[k]

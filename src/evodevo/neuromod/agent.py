@@ -62,6 +62,9 @@ class BiarmAgent:
             self.states_t: torch.Tensor | None = self.modules.state_t
         else:
             self.states_t = None
+        if cfg.modules.lr_relative:  # eta_base at the resting state (modules.lr_relative)
+            rest = cfg.modules.initial_state * sum(cfg.modules.lr_weights)
+            lr_w = [w / rest for w in lr_w]
         self._lr_w = lr_w  # Eq. 3.7 weights, internal layout (Python floats: a 4-term sum)
         self.learned = variant.modulated and variant.gated and cfg.modules.learning == "learned"
         self.net: ProgressiveNet | SharedNet
@@ -166,7 +169,8 @@ class BiarmAgent:
 
     # ------------------------------------------------------------------ per step
     def lr(self) -> float:
-        """Eq. 3.7 (modulated variants) or ``eta_base`` (PNN)."""
+        """Eq. 3.7 (modulated variants; divided by its resting value with
+        ``modules.lr_relative``) or ``eta_base`` (PNN)."""
         base = self.cfg.dqn.lr
         if self.modules is None:
             return base

@@ -190,6 +190,12 @@ class ModuleConfig:
     initial_state: float = doc(0.5, "state of every module at the start of training")
     novelty_decay: float = doc(0.995, "n_task multiplier after every environment step (Eq. 3.5)")
     lr_weights: list[float] = doc([0.3, 0.2, 0.3, 0.2], "Eq. 3.7 weights (DA, 5HT, NE, ACh)")
+    lr_relative: bool = doc(
+        False,
+        "Eq. 3.7 relative to the resting state: eta_eff = eta_base * sum w_m s_m / (initial_state "
+        "* sum w_m), so eta_base is the rate at rest (false: Eq. 3.7 as written, half of eta_base "
+        "at rest)",
+    )
     context_weights: list[float] = doc(
         [0.3, 0.2, 0.3, 0.2], "initial w_m of the context gate of Eq. 3.8 (DA, 5HT, NE, ACh)"
     )
@@ -224,6 +230,11 @@ class ModuleConfig:
                 )
         if self.sample_interval < 1:
             raise ConfigError(f"modules.sample_interval={self.sample_interval} must be >= 1")
+        if self.lr_relative and self.initial_state * sum(self.lr_weights) <= 0:
+            raise ConfigError(
+                f"modules.lr_relative needs initial_state * sum(lr_weights) > 0, got "
+                f"{self.initial_state} * {sum(self.lr_weights)}; set modules.lr_relative: false"
+            )
 
 
 @dataclass

@@ -5,8 +5,9 @@ A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
 a soft target (τ 0.005), the best validated network kept. ``scaled`` is a candidate: the same
 with the earlier columns' activations scaled by ``network.lateral_scale`` = 0.001 where a new
-column reads them (measured on MountainCar third in the sequence only, not yet on the whole
-sequence); ``v1`` is the first protocol, under which the committed first results
+column reads them, and BIARM's Eq. 3.7 taken relative to the modules' resting state
+(``modules.lr_relative``: η_base at rest instead of η_base / 2; PNN is unaffected) — measured on
+MountainCar only, not yet on the whole sequence; ``v1`` is the first protocol, under which the committed first results
 (``docs/results/thesis/biarm``) were measured: ε × 0.995 per *episode*, a hard target copy
 every 500 gradient steps, no double Q, the last network kept, unscaled laterals.
 ``configs/biarm.yaml``, ``configs/biarm_scaled.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
@@ -34,7 +35,7 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    "scaled": {"network": {"lateral_scale": 0.001}},
+    "scaled": {"network": {"lateral_scale": 0.001}, "modules": {"lr_relative": True}},
     "v1": {
         "dqn": {
             "eps_unit": "episode",

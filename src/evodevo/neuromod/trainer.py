@@ -328,7 +328,12 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
             # configs written before network.lateral_init existed ran with Xavier laterals
             part["network"].setdefault("lateral_init", "xavier")
             part["network"].setdefault("lateral_scale", 1.0)
-    for key in ("variant", "seed", "tasks", "episodes_scale", "dqn", "network", "modules"):
+        if isinstance(part.get("modules"), dict):  # written before modules.lr_relative existed
+            part["modules"] = {"lr_relative": False, **part["modules"]}
+    keys = ["variant", "seed", "tasks", "episodes_scale", "dqn", "network"]
+    if variant.modulated:  # the modules' settings change nothing in PNN, fine-tuning or EWC
+        keys.append("modules")
+    for key in keys:
         if theirs.get(key) != mine.get(key):
             raise CheckpointError(
                 f"--resume: {key} of {str(run.path)!r} ({theirs.get(key)!r}) differs from this "
