@@ -5,7 +5,8 @@ A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
 a soft target (τ 0.005), the best validated network kept. ``scaled`` is a candidate: the same
 with the earlier columns' activations scaled by ``network.lateral_scale`` = 0.001 where a new
-column reads them, and BIARM's Eq. 3.7 taken relative to the modules' resting state
+column reads them, a new column's lateral maps starting at zero (``network.lateral_init``: it
+starts as an isolated column), and BIARM's Eq. 3.7 taken relative to the modules' resting state
 (``modules.lr_relative``: η_base at rest instead of η_base / 2; PNN is unaffected) — measured on
 MountainCar only, not yet on the whole sequence; ``v1`` is the first protocol, under which the committed first results
 (``docs/results/thesis/biarm``) were measured: ε × 0.995 per *episode*, a hard target copy
@@ -19,6 +20,8 @@ same three configs as files.
 'step'
 >>> protocol_config("scaled").network.lateral_scale
 0.001
+>>> protocol_config("scaled").network.lateral_init
+'zero'
 """
 
 from __future__ import annotations
@@ -35,7 +38,10 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    "scaled": {"network": {"lateral_scale": 0.001}, "modules": {"lr_relative": True}},
+    "scaled": {
+        "network": {"lateral_scale": 0.001, "lateral_init": "zero"},
+        "modules": {"lr_relative": True},
+    },
     "v1": {
         "dqn": {
             "eps_unit": "episode",
