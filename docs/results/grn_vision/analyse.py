@@ -124,20 +124,34 @@ def second_preset() -> None:
     print("|---|" + "---|" * len(got))
     for name, e in base.items():
         print(f"| {name} | " + " | ".join(pfmt(paired(got[s], e)) for s in got) + " |")
-    for d in sorted(HERE.glob("vision2_noes_s*")):  # the same preset, evolution.early_stop false
-        s = d.name.rsplit("_s", 1)[1]
-        ev = next(d.glob("eval_test_*_episodes.csv"))
-        clean, noisy = successes(ev, "genome"), successes(ev, "genome_noisy") or []
-        if clean is None:
-            continue
-        summ = json.loads((d / "summary.json").read_text())
-        print(f"\nno early stop, seed {s}: {fmt(sum(clean), len(clean))}, noisy "
-              f"{fmt(sum(noisy), len(noisy)) if noisy else '—'}, {summ['episodes_run']} episodes, "
-              f"{summ['wall_s'] / 60:.1f} min")  # fmt: skip
-        others = {**base, **{f"early-stopped seed {k}": v for k, v in got.items()}}
-        for name, e in others.items():
-            print(f"  − {name}: {pfmt(paired(clean, e))}")
-
+    noes: dict[str, list[int]] = {}
+    variants = (
+        ("vision2_noes_s*", "no early stop"),  # the same preset, evolution.early_stop false
+        ("vision3_grasp_s*", "reach at the grasp"),  # + evaluation.distance_at grasp, weight 2
+    )
+    for pattern, label in variants:
+        mine: dict[str, list[int]] = {}
+        for d in sorted(HERE.glob(pattern)):
+            s = d.name.rsplit("_s", 1)[1]
+            ev = next(d.glob("eval_test_*_episodes.csv"), None)
+            clean = None if ev is None else successes(ev, "genome")
+            if clean is None:
+                continue
+            noisy = successes(ev, "genome_noisy") or []
+            summ = json.loads((d / "summary.json").read_text())
+            print(f"\n{label}, seed {s}: {fmt(sum(clean), len(clean))}, noisy "
+                  f"{fmt(sum(noisy), len(noisy)) if noisy else '—'}, {summ['episodes_run']} "
+                  f"episodes, {summ['wall_s'] / 60:.1f} min")  # fmt: skip
+            others = {**base, **{f"early-stopped seed {k}": v for k, v in got.items()}}
+            others.update({f"no early stop, seed {k}": v for k, v in noes.items()})
+            for name, e in others.items():
+                print(f"  − {name}: {pfmt(paired(clean, e))}")
+            mine[s] = clean
+        k, n = sum(sum(v) for v in mine.values()), sum(len(v) for v in mine.values())
+        if n:
+            print(f"\n{label}, pooled over {len(mine)} seeds: {fmt(k, n)}")
+        if not noes:
+            noes = mine
 
 if __name__ == "__main__":
     main()
