@@ -8,8 +8,9 @@ import shutil
 import pytest
 from typer.testing import CliRunner
 
+from evodevo.baselines.kuka_config import NeatConfig
 from evodevo.cli.baselines import app
-from evodevo.errors import EvodevoError
+from evodevo.errors import ConfigError, EvodevoError
 
 pytest.importorskip("pybullet")
 pytest.importorskip("stable_baselines3")
@@ -161,6 +162,30 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
         "turn",
         "scripted",
     }
+
+
+def test_neat_on_the_blob_front_end_with_the_shaped_fitness(tmp_path, tiny):
+    """Issue 22 item 5: NEAT reads the vision preset's 4 blob features (``neat.encoder: blob``)
+    and is selected with the GRN's shaped term; the run saves and reloads that front-end."""
+    cfg = tmp_path / "blob.yaml"
+    cfg.write_text(
+        tiny.read_text().replace("  elitism: 1\n", "  elitism: 1\n  encoder: blob\n")
+        + "  distance_weight: 1.0\n  distance_at: grasp\n"
+    )
+    out = tmp_path / "neat_blob"
+    invoke(
+        "kuka", "--method", "neat", "--config", cfg, "--out", out, "--quiet", "--budget-steps", 1
+    )
+    assert (out / "frontend.npz").is_file() and not (out / "encoder.pt").exists()
+    assert "num_inputs              = 4" in (out / "neat.ini").read_text()
+    history = (out / "history.csv").read_text().splitlines()
+    assert len(history) == 2  # header + generation 0
+    from evodevo.grn.evaluation import load_run
+
+    loaded = load_run(out)
+    assert loaded.encoder.name == "blob" and loaded.config.sensors.encoder == "blob"
+    with pytest.raises(ConfigError, match="neat.encoder"):
+        NeatConfig(encoder="retina").validate()
 
 
 # ``random`` takes the same code path as ``zero`` (about 20 s each): it runs with -m slow.

@@ -18,7 +18,7 @@ from typing import Literal
 
 from evodevo.config import doc
 from evodevo.errors import ConfigError
-from evodevo.grn.config import EnvConfig, EvaluationConfig, GrnConfig
+from evodevo.grn.config import EnvConfig, EvaluationConfig, GrnConfig, SensorConfig
 
 __all__ = [
     "METHODS",
@@ -161,12 +161,23 @@ class NeatConfig:
         "fraction of episodes with N(0, evaluation.visual_noise^2) on every one of the 128 "
         "features; 0 because the GRN's noise hits 4 unit-scale values, these are ~0.09 each",
     )
+    encoder: str = doc(
+        "cnn",
+        "visual front-end the networks read: cnn (the thesis' 128 random-CNN features) or blob "
+        "(the vision preset's 4 image-only object-localising features, issue 22)",
+    )
 
     def validate(self) -> None:
         if self.population < 2:
             raise ConfigError(f"population={self.population!r} must be >= 2")
         _positive("generations", self.generations)
         _positive("episodes", self.episodes)
+        from evodevo.grn.frontends import FRONTENDS
+
+        if self.encoder not in FRONTENDS:
+            raise ConfigError(
+                f"neat.encoder={self.encoder!r} is not a front-end; choose one of {list(FRONTENDS)}"
+            )
         for key in ("weight_mutate_rate", "conn_add_prob", "node_add_prob", "noisy_fraction"):
             value = getattr(self, key)
             if not 0.0 <= value <= 1.0:
@@ -196,11 +207,16 @@ class KukaBaselineConfig:
         """The config the GRN :class:`~evodevo.grn.evaluator.Evaluator` runs this baseline with.
 
         Same ``env`` and ``evaluation`` sections (so the same test seeds as a GRN run); the
-        controller is the baseline's policy (:data:`CONTROLLERS`).
+        controller is the baseline's policy (:data:`CONTROLLERS`); NEAT's front-end is
+        ``neat.encoder``.
         """
+        from evodevo.grn.frontends import frontend_dim
+
+        encoder = self.neat.encoder if self.method == "neat" else "cnn"
         return GrnConfig(
             seed=self.seed,
             controller=CONTROLLERS[self.method],
+            sensors=SensorConfig(encoder=encoder, feature_dim=frontend_dim(encoder)),
             env=self.env,
             evaluation=self.evaluation,
         )

@@ -138,8 +138,8 @@ def run_baseline(
 def load_run(run: RunDir, saved: dict[str, Any]) -> Any:
     """A baseline run as :class:`evodevo.grn.evaluation.LoadedRun` (policy in place of a genome)."""
     from evodevo.baselines.policies import NeatNet, Sb3Model, load_sb3
-    from evodevo.grn.encoder import Encoder
     from evodevo.grn.evaluation import LoadedRun
+    from evodevo.grn.frontends import load_frontend
 
     cfg = read_baseline_config(run)
     genome: Any = None
@@ -152,6 +152,6 @@ def load_run(run: RunDir, saved: dict[str, Any]) -> Any:
         from evodevo.baselines.neat_kuka import NEAT_INI
 
         genome = NeatNet.load(run / "best_genome.pkl", (run / NEAT_INI).resolve())
-        encoder = Encoder.load(run / "encoder.pt")
+        encoder = load_frontend(cfg.evaluator_config(), run.path)
     # SB3 and trivial policies use no encoder (LoadedRun's Evaluator accepts None)
     return LoadedRun(run, cfg.evaluator_config(), encoder, genome, cfg.method)  # type: ignore[arg-type]

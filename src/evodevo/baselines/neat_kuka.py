@@ -1,9 +1,12 @@
 """NEAT of neat-python on the Kuka benchmark (SPEC §4, thesis Table 4.1).
 
-neat-python evolves the networks (128 encoder features → one tanh output per action);
-everything else is the GRN's: the fixed random encoder of the run seed (``encoder.pt``), the
-:class:`~evodevo.grn.evaluator.Evaluator` and its worker pool, the training episodes of each
-generation (common random numbers: every genome sees the same ones), and Eq. 4.6 as fitness.
+neat-python evolves the networks (front-end features → one tanh output per action);
+everything else is the GRN's: the visual front-end (``neat.encoder``: the fixed random CNN of
+the run seed, 128 features, ``encoder.pt``; or the vision preset's blob localiser, 4 features,
+``frontend.npz``; issue 22), the :class:`~evodevo.grn.evaluator.Evaluator` and its worker pool,
+the training episodes of each generation (common random numbers: every genome sees the same
+ones), and Eq. 4.6 as fitness, minus the GRN's shaped term when ``evaluation.distance_weight``
+is set (``evaluation.distance_at``, SPEC §2.4).
 Training time is the evaluation time of the generations (neat-python's reproduction of 12
 genomes takes milliseconds), as for the GRN.
 
@@ -32,10 +35,10 @@ from evodevo.baselines.kuka_config import KukaBaselineConfig
 from evodevo.baselines.policies import NeatNet, neat_config
 from evodevo.baselines.sb3_kuka import CURVE_FIELDS, summarise
 from evodevo.errors import EvodevoError
-from evodevo.grn.encoder import Encoder
 from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.evolution import EPISODE_KEY, training_episodes
-from evodevo.grn.fitness import fitness_matrix
+from evodevo.grn.fitness import distance_penalty, fitness_matrix
+from evodevo.grn.frontends import frontend_dim, load_frontend, make_frontend, save_frontend
 from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
 
 __all__ = ["NEAT_TEMPLATE", "write_neat_config", "NeatState", "RunReporter", "train_neat"]
@@ -126,7 +129,7 @@ def write_neat_config(cfg: KukaBaselineConfig, n_actions: int, run: RunDir) -> s
     n = cfg.neat
     text = NEAT_TEMPLATE.format(
         population=n.population,
-        num_inputs=128,
+        num_inputs=frontend_dim(n.encoder),
         num_outputs=n_actions,
         initial_connection=n.initial_connection,
         weight_mutate_power=n.weight_mutate_power,
@@ -349,10 +352,10 @@ def train_neat(
     # A run killed before its first generation's checkpoint has nothing to continue: start it.
     resume = resume and (run.path / "checkpoints" / STATE_FILE).is_file()
     if resume:
-        encoder = Encoder.load(run / "encoder.pt")
+        encoder = load_frontend(ecfg, run.path)
     else:
-        encoder = Encoder.from_seed(cfg.seed)
-        encoder.save(run / "encoder.pt")
+        encoder = make_frontend(ecfg, cfg.seed)
+        save_frontend(encoder, run.path)
     with Evaluator(ecfg, encoder, workers=workers, backend=backend, address=address) as ev:
         if resume:
             pop, state = _restore(run)
@@ -371,8 +374,11 @@ def train_neat(
                 cfg.seed, EPISODE_KEY, state.generation, cfg.neat.episodes, cfg.neat.noisy_fraction
             )
             nets = [NeatNet.from_genome(g, ini) for _, g in genomes]
-            res = ev.evaluate(nets, episodes)
+            weight = ecfg.evaluation.distance_weight  # the GRN's shaped training term, if set
+            res = ev.evaluate(nets, episodes, measure_distance=weight > 0)
             fit = fitness_matrix(res.reward, res.success)
+            if weight > 0 and res.distance is not None:
+                fit = fit - weight * distance_penalty(res.distance)
             for (_, g), f in zip(genomes, fit, strict=True):
                 g.fitness = float(f)
             best = int(np.argmax(fit))
