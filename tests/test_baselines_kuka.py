@@ -164,6 +164,46 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
     }
 
 
+def test_ppo_on_the_blob_front_end_reads_4_features_and_is_evaluable(tmp_path, tiny):
+    """Issue 22 item 5: ``ppo.encoder: blob`` trains an MLP policy on the blob features (the
+    wrapper encodes every frame as the GRN evaluator does) and the evaluator runs it on them."""
+    import numpy as np
+
+    from evodevo.baselines.feature_env import FeatureObservation
+    from evodevo.baselines.policies import blob_frontend
+    from evodevo.grn.evaluator import make_env
+
+    cfg = tmp_path / "blob.yaml"
+    cfg.write_text(tiny.read_text().replace("  n_epochs: 1\n", "  n_epochs: 1\n  encoder: blob\n"))
+    out = tmp_path / "ppo_blob"
+    invoke(
+        "kuka", "--method", "ppo", "--budget-steps", 16, "--config", cfg, "--out", out, "--quiet"
+    )
+    assert _summary(out)["env_steps"] == 16
+    res = invoke("evaluate", out, "--test-episodes", 1, "--noise", 0.03, "--json")
+    assert json.loads(res.output.strip().splitlines()[-1])["controller"] == "ppo"
+    from evodevo.baselines.policies import load_sb3
+
+    model = load_sb3("ppo", out / "model.zip")
+    assert model.observation_space.shape == (4,)
+    # the wrapper's features are the front-end's on the same frame
+    env = make_env("evodevo/KukaDiverseObject-v0", {"max_steps": 8})
+    fe = blob_frontend("evodevo/KukaDiverseObject-v0", {"max_steps": 8})
+    wrapped = FeatureObservation(env, fe)
+    try:
+        obs, info = wrapped.reset(seed=10000)
+        img, info2 = env.reset(seed=10000)
+        want = fe.encode(img[None], info2["proprio"][None].astype(float), fe.reset(1), np.arange(1))
+        np.testing.assert_allclose(obs, want[0], rtol=1e-6)
+        assert obs.shape == (4,) and obs[3] in (0.0, 1.0)
+    finally:
+        wrapped.close()
+    with pytest.raises(ConfigError, match="ppo.encoder"):
+        from evodevo.baselines.kuka_config import PpoConfig
+
+        PpoConfig(encoder="cnn").validate()
+
+
 def test_neat_on_the_blob_front_end_with_the_shaped_fitness(tmp_path, tiny):
     """Issue 22 item 5: NEAT reads the vision preset's 4 blob features (``neat.encoder: blob``)
     and is selected with the GRN's shaped term; the run saves and reloads that front-end."""

@@ -102,6 +102,12 @@ class PpoConfig:
     gae_lambda: float = doc(0.95, "GAE lambda (not in the thesis; SB3 default)")
     cnn: CnnConfig = field(default_factory=CnnConfig)
     net_arch: list[int] = doc([64], "hidden layers of the policy and value heads (Table 4.1: 64)")
+    encoder: str = doc(
+        "image",
+        "what the policy reads: image (the 48x48 camera image through the trained CNN, Table "
+        "4.1) or blob (the vision preset's 4 image-only object-localising features, an MLP "
+        "policy; issue 22)",
+    )
 
     def validate(self) -> None:
         for key in ("learning_rate", "clip_range", "n_steps", "batch_size", "n_epochs"):
@@ -112,6 +118,8 @@ class PpoConfig:
             raise ConfigError(f"ent_coef={self.ent_coef!r} must be >= 0")
         if self.n_steps < 2:
             raise ConfigError(f"n_steps={self.n_steps!r} must be >= 2 (SB3 normalises advantages)")
+        if self.encoder not in ("image", "blob"):
+            raise ConfigError(f"ppo.encoder={self.encoder!r} must be image or blob")
 
 
 @dataclass
@@ -208,11 +216,12 @@ class KukaBaselineConfig:
 
         Same ``env`` and ``evaluation`` sections (so the same test seeds as a GRN run); the
         controller is the baseline's policy (:data:`CONTROLLERS`); NEAT's front-end is
-        ``neat.encoder``.
+        ``neat.encoder``, PPO's ``ppo.encoder`` (``sensors.encoder`` "blob" when it is).
         """
         from evodevo.grn.frontends import frontend_dim
 
-        encoder = self.neat.encoder if self.method == "neat" else "cnn"
+        encoder = {"neat": self.neat.encoder, "ppo": self.ppo.encoder}.get(self.method, "cnn")
+        encoder = "cnn" if encoder == "image" else encoder  # SB3's own CNN: no GRN front-end
         return GrnConfig(
             seed=self.seed,
             controller=CONTROLLERS[self.method],

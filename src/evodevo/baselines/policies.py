@@ -11,7 +11,9 @@ of :mod:`evodevo.grn.controller` (``reset_state(genomes)``, vectorised ``step``)
   its genome is a :class:`NeatNet` (the pickled neat genome and the neat config file). On noisy
   episodes every feature gets N(0, ``evaluation.visual_noise``²).
 
-The SB3 policy ignores the noisy flag (its input is the image, not features).
+The SB3 policy on the image ignores the noisy flag (its input is the image, not features); on
+the blob front-end (``ppo.encoder: blob``) it encodes the images itself and noisy episodes get
+the GRN's N(0, ``evaluation.visual_noise``²) on every feature.
 
 Both are picklable references, so the evaluator's worker processes receive them like genomes.
 """
@@ -76,6 +78,13 @@ class Sb3Policy:
     def __init__(self, config: Any, n_actions: int) -> None:
         self.n_actions = int(n_actions)
         self._models: dict[Sb3Model, Any] = {}
+        # ppo.encoder: blob -> the model reads the blob front-end's features (issue 22); the
+        # calibration is deterministic, so it is the one the model was trained with
+        self.frontend: Any = None
+        self.visual_noise = 0.0
+        if getattr(getattr(config, "sensors", None), "encoder", "cnn") == "blob":
+            self.frontend = blob_frontend(config.env.id, dict(config.env.kwargs))
+            self.visual_noise = float(config.evaluation.visual_noise)
 
     def model(self, ref: Sb3Model) -> Any:
         """The loaded model of ``ref`` (cached)."""
@@ -83,8 +92,9 @@ class Sb3Policy:
             self._models[ref] = load_sb3(ref.algo, ref.path)
         return self._models[ref]
 
-    def reset_state(self, genomes: Sequence[Sb3Model]) -> list[Any]:
-        return [self.model(g) for g in genomes]
+    def reset_state(self, genomes: Sequence[Sb3Model]) -> tuple[list[Any], Any]:
+        fstate = None if self.frontend is None else self.frontend.reset(len(genomes))
+        return [self.model(g) for g in genomes], fstate
 
     def step(
         self,
@@ -98,7 +108,12 @@ class Sb3Policy:
         if features is None:
             raise CheckpointError("Sb3Policy needs the images; the evaluator passed none")
         out = np.zeros((len(idx), self.n_actions))
-        models = [state[i] for i in idx]
+        models = [state[0][i] for i in idx]
+        if self.frontend is not None:  # blob features, with the GRN's noise on noisy episodes
+            features = self.frontend.encode(features, proprio, state[1], idx).astype(np.float32)
+            for j, rng in enumerate(rngs):
+                if noisy[j]:
+                    features[j] += rng.normal(0.0, self.visual_noise, features.shape[1])
         # one predict per distinct model (usually one): a batch of images in one forward pass
         for model in {id(m): m for m in models}.values():
             rows = [j for j, m in enumerate(models) if m is model]

@@ -258,9 +258,20 @@ def prune_checkpoints(folder: Path, keep: int) -> None:
                 (folder / name).unlink(missing_ok=True)
 
 
-def _vec_env(cfg: KukaBaselineConfig) -> VecTransposeImage:
+def _vec_env(cfg: KukaBaselineConfig) -> VecTransposeImage | DummyVecEnv:
     env = make_env(cfg.env.id, cfg.env.kwargs, test_objects=False)
+    if uses_blob(cfg):  # the vision preset's features (issue 22), not the image
+        from evodevo.baselines.feature_env import FeatureObservation
+        from evodevo.baselines.policies import blob_frontend
+
+        wrapped = FeatureObservation(env, blob_frontend(cfg.env.id, dict(cfg.env.kwargs)))
+        return DummyVecEnv([lambda: Monitor(wrapped)])
     return VecTransposeImage(DummyVecEnv([lambda: Monitor(env)]))
+
+
+def uses_blob(cfg: KukaBaselineConfig) -> bool:
+    """Whether this SB3 run reads the blob front-end's features (``ppo.encoder: blob``)."""
+    return cfg.method == "ppo" and cfg.ppo.encoder == "blob"
 
 
 def _policy_kwargs(cnn: CnnConfig, net_arch: list[int]) -> dict[str, Any]:
@@ -278,8 +289,9 @@ def build_model(cfg: KukaBaselineConfig, env: Any) -> Any:
     """A fresh PPO or TD3 model for ``cfg`` (seeded by SB3's ``seed=``)."""
     if cfg.method == "ppo":
         p = cfg.ppo
+        blob = uses_blob(cfg)
         return PPO(
-            "CnnPolicy",
+            "MlpPolicy" if blob else "CnnPolicy",
             env,
             learning_rate=p.learning_rate,
             n_steps=p.n_steps,
@@ -289,7 +301,9 @@ def build_model(cfg: KukaBaselineConfig, env: Any) -> Any:
             gae_lambda=p.gae_lambda,
             clip_range=p.clip_range,
             ent_coef=p.ent_coef,
-            policy_kwargs=_policy_kwargs(p.cnn, p.net_arch),
+            policy_kwargs={"net_arch": list(p.net_arch)}
+            if blob
+            else _policy_kwargs(p.cnn, p.net_arch),
             seed=cfg.seed,
             device="cpu",
             verbose=0,
