@@ -30,7 +30,7 @@ def _measure(batch: int, episodes: int, seed: int) -> dict[str, float]:
     from evodevo.grn.config import GrnConfig
     from evodevo.grn.controller import make_controller
     from evodevo.grn.encoder import Encoder
-    from evodevo.grn.evaluator import _proprio, make_env
+    from evodevo.grn.env_interface import make_env, proprio_of
     from evodevo.seeding import derive
 
     cfg = GrnConfig(seed=seed)
@@ -47,7 +47,7 @@ def _measure(batch: int, episodes: int, seed: int) -> dict[str, float]:
             for b, env in enumerate(envs):
                 o, info = env.reset(seed=derive(seed, rep, b))
                 obs.append(o)
-                prop.append(_proprio(info, 4))
+                prop.append(proprio_of(info, 4))
             obs_a, prop_a = np.stack(obs), np.stack(prop)
             state = ctrl.reset_state(genomes)
             rngs = [np.random.default_rng(derive(seed, rep, b, 1)) for b in range(batch)]
@@ -66,7 +66,7 @@ def _measure(batch: int, episodes: int, seed: int) -> dict[str, float]:
                     o, _, term, trunc, info = envs[b].step(actions[j].astype(np.float32))
                     timers["env_cpu"] += time.process_time() - c0
                     timers["env_wall"] += time.perf_counter() - w0
-                    obs_a[b], prop_a[b] = o, _proprio(info, 4)
+                    obs_a[b], prop_a[b] = o, proprio_of(info, 4)
                     steps += 1
                     if term or trunc:
                         active[b] = False

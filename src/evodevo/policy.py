@@ -114,12 +114,12 @@ class GrnPolicy(Policy):
         self._steps = 0
 
     def _sensors(self, obs: Any, info: dict[str, Any] | None) -> np.ndarray:
-        from evodevo.grn.evaluator import _proprio, _vector_range, scale_observation
+        from evodevo.grn.env_interface import policy_vector_range, proprio_of, scale_observation
 
         n = int(self.config.sensors.n_proprio)
         if not self.vector:
-            return _proprio(info or {}, n)
-        v = scale_observation(obs, self.observation_space, _vector_range(self.controller))
+            return proprio_of(info or {}, n)
+        v = scale_observation(obs, self.observation_space, policy_vector_range(self.controller))
         if v.shape[0] != n:
             raise EvodevoError(f"the observation has {v.shape[0]} values; the policy expects {n}")
         return v
@@ -127,7 +127,7 @@ class GrnPolicy(Policy):
     def predict(
         self, obs: Any, info: dict[str, Any] | None = None, reward: float | None = None
     ) -> Any:
-        from evodevo.grn.evaluator import _scale_actions
+        from evodevo.grn.env_interface import scale_actions
         from evodevo.grn.frontends import encode
 
         if self._state is None:
@@ -154,7 +154,7 @@ class GrnPolicy(Policy):
         if not np.all(np.isfinite(actions)):
             raise EvodevoError("the controller produced non-finite actions")
         self._steps += 1
-        return _scale_actions(np.asarray(actions)[0], self.action_space)
+        return scale_actions(np.asarray(actions)[0], self.action_space)
 
 
 # -------------------------------------------------------------------------------------- BIARM

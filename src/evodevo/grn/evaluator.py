@@ -30,7 +30,6 @@ True
 from __future__ import annotations
 
 import hashlib
-import importlib
 import itertools
 import time
 import uuid
@@ -41,8 +40,19 @@ from typing import Any, cast
 import gymnasium as gym
 import numpy as np
 
-from evodevo.errors import EvodevoError, env_module_error
+from evodevo.errors import EvodevoError
 from evodevo.grn.encoder import Encoder
+from evodevo.grn.env_interface import (
+    action_dims,
+    evaluator_env_kwargs,
+    grasp_distance,
+    is_vector_observation,
+    make_env,
+    policy_vector_range,
+    proprio_of,
+    scale_actions,
+    scale_observation,
+)
 from evodevo.grn.frontends import encode, frontend_name
 from evodevo.parallel import make_pool
 from evodevo.seeding import derive
@@ -102,135 +112,6 @@ class EpisodeResults:
         return int(self.steps.sum())
 
 
-def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) -> gym.Env[Any, Any]:
-    """``gymnasium.make`` after importing ``evodevo.envs`` for ``evodevo/`` ids.
-
-    ``test_objects=False`` is dropped (the Kuka env's default), so envs without held-out
-    objects can be made by the same calls. An id ``"module:EnvName-v0"`` makes Gymnasium import
-    ``module`` first (which registers the env; docs/extending.md); a module that cannot be
-    imported is an :class:`EvodevoError` naming the id.
-    """
-    if extra.get("test_objects") is False:
-        extra = {k: v for k, v in extra.items() if k != "test_objects"}
-    if env_id.startswith("evodevo/"):
-        try:
-            importlib.import_module("evodevo.envs")
-        except ImportError as exc:
-            raise EvodevoError(
-                f"environment {env_id!r} needs evodevo.envs, which failed to import ({exc}); "
-                "install the kuka extra: pip install -e '.[kuka]'"
-            ) from None
-    try:
-        return gym.make(env_id, **{**(kwargs or {}), **extra})
-    except gym.error.Error as exc:
-        raise EvodevoError(f"cannot make environment {env_id!r}: {exc}") from None
-    except ImportError as exc:  # a "module:EnvName-v0" id whose module cannot be imported
-        raise env_module_error(env_id, exc) from None
-    except TypeError as exc:
-        hint = (
-            "; it has no held-out test objects: evaluate with --objects train"
-            if extra.get("test_objects")
-            else ""
-        )
-        raise EvodevoError(f"cannot make environment {env_id!r}: {exc}{hint}") from None
-
-
-def is_vector_observation(space: gym.Space[Any]) -> bool:
-    """True for a flat Box observation (fed to the GRN directly, without the encoder)."""
-    return isinstance(space, gym.spaces.Box) and len(space.shape) == 1
-
-
-def scale_observation(
-    obs: np.ndarray, space: gym.spaces.Box, out_range: tuple[float, float]
-) -> np.ndarray:
-    """Map a vector observation's Box bounds linearly onto ``out_range``.
-
-    Dimensions with infinite (or empty) bounds pass through unscaled.
-
-    >>> box = gym.spaces.Box(np.array([-8.0, -np.inf]), np.array([8.0, np.inf]), dtype=np.float64)
-    >>> scale_observation(np.array([4.0, 3.0]), box, (-1.0, 1.0)).tolist()
-    [0.5, 3.0]
-    """
-    lo, hi = space.low.astype(np.float64), space.high.astype(np.float64)
-    x = np.asarray(obs, dtype=np.float64).reshape(-1)
-    finite = np.isfinite(lo) & np.isfinite(hi) & (hi > lo)
-    a, b = out_range
-    span = np.where(finite, hi - lo, 1.0)
-    scaled = a + (x - np.where(finite, lo, 0.0)) * (b - a) / span
-    return np.where(finite, scaled, x)
-
-
-def action_dims(space: gym.Space[Any]) -> int:
-    """Action dimensions of a flat Box space; anything else cannot be driven by a GRN."""
-    if not isinstance(space, gym.spaces.Box) or len(space.shape) != 1:
-        raise EvodevoError(
-            f"the GRN drives a flat continuous Box action space; this environment has {space}. "
-            "Use an environment with continuous actions (e.g. the Kuka env with its height hack)"
-        )
-    return int(space.shape[0])
-
-
-def _scale_actions(a: np.ndarray, space: gym.spaces.Box) -> np.ndarray:
-    """Map actions in [-1, 1] to the Box bounds (identity for Box(-1, 1))."""
-    lo, hi = space.low.astype(np.float64), space.high.astype(np.float64)
-    if np.all(lo == -1.0) and np.all(hi == 1.0):
-        return a.astype(space.dtype)
-    return (lo + (a + 1.0) * 0.5 * (hi - lo)).astype(space.dtype)
-
-
-def _proprio(info: dict[str, Any], n: int) -> np.ndarray:
-    p = info.get("proprio")
-    if p is None:
-        return np.zeros(n)
-    p = np.asarray(p, dtype=np.float64).reshape(-1)
-    if p.shape[0] != n:
-        raise EvodevoError(f"info['proprio'] has {p.shape[0]} values; the controller expects {n}")
-    return p
-
-
-def evaluator_env_kwargs(config: Any) -> dict[str, Any]:
-    """The keyword arguments the :class:`Evaluator` makes its environments with.
-
-    ``config.env.kwargs``, plus ``skip_empty_lift=False`` for the Kuka port when the training
-    fitness reads the gripper's end pose (``evaluation.distance_weight`` > 0 with
-    ``evaluation.distance_at: end``) and the config does not choose: a skipped lift ends a failed grasp with the arm part of the way up, which
-    moves :func:`grasp_distance` by centimetres (docs/kuka_env.md, "Skipped lift"). Outcomes
-    are the same either way.
-    """
-    kwargs = dict(config.env.kwargs)
-    evaluation = getattr(config, "evaluation", None)
-    weight = float(getattr(evaluation, "distance_weight", 0.0) or 0.0)
-    at_end = getattr(evaluation, "distance_at", "end") == "end"
-    if config.env.id == "evodevo/KukaDiverseObject-v0" and weight > 0 and at_end:
-        kwargs.setdefault("skip_empty_lift", False)
-    return kwargs
-
-
-def grasp_distance(env: gym.Env[Any, Any], at: str = "end") -> float:
-    """Horizontal distance (m) from the gripper to the nearest object, read from the simulator.
-
-    For the shaped *training* fitness only (SPEC §2.4, ``evaluation.distance_weight``). ``at``
-    (``evaluation.distance_at``): ``"end"``, after the episode (the automatic grasp's lift
-    included); ``"grasp"``, when the automatic grasp started (the reach itself, before the
-    fingers and the lift move anything; an episode that ended without a grasp counts its end).
-    NaN when the env is not the Kuka port.
-    """
-    u: Any = env.unwrapped
-    if at == "grasp":
-        d = getattr(u, "distance_at_grasp", float("nan"))
-        if np.isfinite(d):
-            return float(d)
-    arm, uids = getattr(u, "_arm", None), getattr(u, "_object_uids", None)
-    if arm is None or not uids:
-        return float("nan")
-    return float(u.nearest_object_distance())
-
-
-def _vector_range(policy: Any) -> tuple[float, float]:
-    sensors = getattr(getattr(policy, "config", None), "sensors", None)
-    return tuple(sensors.vector_range) if sensors is not None else (-1.0, 1.0)  # type: ignore[return-value]
-
-
 def run_episodes(
     envs: Sequence[gym.Env[Any, Any]],
     encoder: Any,
@@ -262,11 +143,11 @@ def run_episodes(
         raise ValueError("run_episodes needs one env and one genome per episode")
     space = getattr(envs[0], "observation_space", None)  # proxies (recording) may lack it
     vector = space is not None and is_vector_observation(space)
-    vrange = vector_range if vector_range is not None else _vector_range(policy)
+    vrange = vector_range if vector_range is not None else policy_vector_range(policy)
 
     def sensors(o: Any, info: dict[str, Any]) -> np.ndarray:
         if not vector:
-            return _proprio(info, n_proprio)
+            return proprio_of(info, n_proprio)
         v = scale_observation(o, space, vrange)  # type: ignore[arg-type]
         if v.shape[0] != n_proprio:
             raise EvodevoError(
@@ -307,7 +188,7 @@ def run_episodes(
         for j, slot in enumerate(idx.tolist()):
             env = envs[slot]
             box = cast(gym.spaces.Box, env.action_space)
-            o, r, term, trunc, info = env.step(_scale_actions(actions[j], box))
+            o, r, term, trunc, info = env.step(scale_actions(actions[j], box))
             obs_arr[slot] = o
             prop_arr[slot] = sensors(o, info)
             step_r[j] = float(r)
