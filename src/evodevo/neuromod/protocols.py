@@ -4,7 +4,7 @@ A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig
 (only keys Table 3.1 and SPEC §1.2 do not fix). ``default`` is the config's defaults, the
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
 a soft target (τ 0.005), the best validated network kept. ``scaled`` is a candidate: the same
-with the earlier columns' activations scaled by ``network.lateral_scale`` = 0.001 where a new
+with the earlier columns' activations scaled by ``network.lateral_scale`` = 0.0001 where a new
 column reads them, a new column's lateral maps starting at zero (``network.lateral_init``: it
 starts as an isolated column), and BIARM's Eq. 3.7 taken relative to the modules' resting state
 (``modules.lr_relative``: η_base at rest instead of η_base / 2; PNN is unaffected) — measured on
@@ -19,7 +19,7 @@ same three configs as files.
 >>> protocol_config("default").dqn.eps_unit
 'step'
 >>> protocol_config("scaled").network.lateral_scale
-0.001
+0.0001
 >>> protocol_config("scaled").network.lateral_init
 'zero'
 """
@@ -39,7 +39,7 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
     "scaled": {
-        "network": {"lateral_scale": 0.001, "lateral_init": "zero"},
+        "network": {"lateral_scale": 0.0001, "lateral_init": "zero"},
         "modules": {"lr_relative": True},
     },
     "v1": {
