@@ -160,3 +160,62 @@ def test_episodes_scale_rounds_with_minimum_one():
     cfg = tiny(episodes_scale=2.6)
     assert [cfg.scaled_episodes(t) for t in cfg.tasks] == [10, 5]
     assert math.isclose(BiarmConfig().episodes_scale, 1.0)
+
+
+THREE: dict[str, Any] = {
+    "tasks": [
+        {"env_id": "CartPole-v1", "episodes": 3, "max_steps": 40},
+        {"env_id": "Acrobot-v1", "episodes": 2, "max_steps": 40},
+        {"env_id": "MountainCar-v0", "episodes": 2, "max_steps": 40},
+    ],
+    "dqn": {"batch_size": 16, "learning_starts": 16},
+    "eval": {"episodes": 2, "validation_episodes": 1, "validation_every": 2},
+}
+
+
+@pytest.mark.parametrize("variant", ["pnn", "biarm"])
+def test_resume_at_a_later_task_boundary_gives_the_same_weights(tmp_path, variant):
+    """Killed at the start of MountainCar (after Acrobot's 6-value observations), resumed from
+    ``task1.pt``: the same weights as the uninterrupted run. Before the fix the padded input
+    positions kept Acrobot's last observation in the uninterrupted run only (stale padding)."""
+    cfg = from_dict(BiarmConfig, THREE)
+    train(cfg, variant, 0, tmp_path / "full")
+
+    class Killed(Exception):
+        pass
+
+    def kill(info):
+        if info.task == 2:
+            raise Killed
+
+    with pytest.raises(Killed):
+        train(cfg, variant, 0, tmp_path / "cut", hook=kill)
+    train(cfg, variant, 0, tmp_path / "cut", resume=True)
+    a = load_checkpoint(tmp_path / "full" / "checkpoints" / "task2.pt")["agent"]["net"]
+    b = load_checkpoint(tmp_path / "cut" / "checkpoints" / "task2.pt")["agent"]["net"]
+    for key in a:
+        assert torch.equal(a[key], b[key]), key
+
+
+def test_padding_is_zero_in_training_unless_stale_padding(tmp_path):
+    """phi (Eq. 3.10) zero-pads a task's observation to d_max during training too; the v1
+    protocol's ``network.stale_padding`` keeps the previous task's values (the old behaviour)."""
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.tasks import resolve_tasks
+    from evodevo.neuromod.trainer import TaskRunner
+    from evodevo.neuromod.variants import get_variant
+
+    for stale in (False, True):
+        cfg = from_dict(BiarmConfig, {**THREE, "network": {"stale_padding": stale}})
+        specs, d_max = resolve_tasks(cfg)
+        agent = BiarmAgent(cfg, get_variant("pnn"), d_max, 0)
+        agent.begin_task(specs[1].n_actions)
+        agent.obs_np[:] = 7.0  # what the previous task (6 values) left in the shared row
+        runner = TaskRunner(agent, specs[2], 2, 0)
+        try:
+            runner.episode()
+            rows = runner.buf.data[: runner.buf.size, : runner.buf.obs_dim]
+            n = specs[2].obs_dim
+            assert (rows[:, n:] == (7.0 if stale else 0.0)).all()
+        finally:
+            runner.close()

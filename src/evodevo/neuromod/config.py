@@ -155,6 +155,12 @@ class NetworkConfig:
         "(Rusu et al. 2016's input scale, not learned; SPEC §1.2): under Adam it scales the "
         "laterals' initial size and their learning rate alike; 1.0 = v1",
     )
+    stale_padding: bool = doc(
+        False,
+        "true reproduces runs made before 2026-12-05 (v1): the padded input positions beyond a "
+        "task's observation kept the previous task's last observation during training (a bug: "
+        "phi of Eq. 3.10 zero-pads, and evaluation did); false zero-pads them",
+    )
 
     def validate(self) -> None:
         if self.hidden < 1:

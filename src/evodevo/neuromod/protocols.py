@@ -50,7 +50,7 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
             "double_q": False,
             "keep": "last",
         },
-        "network": {"lateral_init": "xavier", "lateral_scale": 1.0},
+        "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
     },
 }
 

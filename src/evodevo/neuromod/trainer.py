@@ -129,6 +129,10 @@ class TaskRunner:
         if resume is None:
             agent.begin_task(spec.n_actions)
         self.rng = np_rng(seed, 1, index)
+        if not agent.cfg.network.stale_padding:
+            # phi (Eq. 3.10) zero-pads: the input row is shared across tasks, and a task with a
+            # smaller observation writes only its first spec.obs_dim entries
+            agent.obs_np[:] = 0.0
         self.env = make_env(spec.env_id, spec.max_steps)
         self.buf = ReplayBuffer(agent.cfg.dqn.replay_size, agent.obs_dim)
         self.nxt = np.zeros(agent.obs_dim, dtype=np.float32)
@@ -328,6 +332,9 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
             # configs written before network.lateral_init existed ran with Xavier laterals
             part["network"].setdefault("lateral_init", "xavier")
             part["network"].setdefault("lateral_scale", 1.0)
+        # runs written before network.stale_padding existed trained with the stale padding
+        if part is theirs and isinstance(part.get("network"), dict):
+            part["network"].setdefault("stale_padding", True)
         if isinstance(part.get("modules"), dict):  # written before modules.lr_relative existed
             part["modules"] = {"lr_relative": False, **part["modules"]}
     keys = ["variant", "seed", "tasks", "episodes_scale", "dqn", "network"]
