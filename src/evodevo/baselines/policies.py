@@ -69,6 +69,16 @@ class Sb3Model:
         return {}
 
 
+def add_visual_noise(
+    features: np.ndarray, rngs: Sequence[np.random.Generator], noisy: np.ndarray, std: float
+) -> None:
+    """In place: N(0, std²) on every feature of the rows of noisy episodes, each row's noise
+    from its own episode generator (the GRN's visual-noise protocol, SPEC §2.5)."""
+    for j, rng in enumerate(rngs):
+        if noisy[j]:
+            features[j] += rng.normal(0.0, std, features.shape[1])
+
+
 class Sb3Policy:
     """Deterministic actions of a saved SB3 model from the raw image (see module docstring)."""
 
@@ -111,9 +121,7 @@ class Sb3Policy:
         models = [state[0][i] for i in idx]
         if self.frontend is not None:  # blob features, with the GRN's noise on noisy episodes
             features = self.frontend.encode(features, proprio, state[1], idx).astype(np.float32)
-            for j, rng in enumerate(rngs):
-                if noisy[j]:
-                    features[j] += rng.normal(0.0, self.visual_noise, features.shape[1])
+            add_visual_noise(features, rngs, noisy, self.visual_noise)
         # one predict per distinct model (usually one): a batch of images in one forward pass
         for model in {id(m): m for m in models}.values():
             rows = [j for j, m in enumerate(models) if m is model]
@@ -226,9 +234,7 @@ class NeatPolicy:
         if features is None:
             raise CheckpointError("NeatPolicy needs encoder features; the run has no encoder")
         feats = np.array(features, dtype=np.float64, copy=True)
-        for j, rng in enumerate(rngs):  # noisy episodes: N(0, visual_noise^2) on every feature
-            if noisy[j]:
-                feats[j] += rng.normal(0.0, self.visual_noise, feats.shape[1])
+        add_visual_noise(feats, rngs, noisy, self.visual_noise)
         out = np.array([state[i].activate(feats[j].tolist()) for j, i in enumerate(idx)])
         return np.clip(out.reshape(len(idx), self.n_actions), -1.0, 1.0)
 

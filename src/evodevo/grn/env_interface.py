@@ -149,10 +149,8 @@ def grasp_distance(env: gym.Env[Any, Any], at: str = "end") -> float:
         d = getattr(u, "distance_at_grasp", float("nan"))
         if np.isfinite(d):
             return float(d)
-    arm, uids = getattr(u, "_arm", None), getattr(u, "_object_uids", None)
-    if arm is None or not uids:
-        return float("nan")
-    return float(u.nearest_object_distance())
+    nearest = getattr(u, "nearest_object_distance", None)
+    return float("nan") if nearest is None else float(nearest())
 
 
 def policy_vector_range(policy: Any) -> tuple[float, float]:

@@ -332,11 +332,10 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
             # configs written before network.lateral_init existed ran with Xavier laterals
             part["network"].setdefault("lateral_init", "xavier")
             part["network"].setdefault("lateral_scale", 1.0)
-        # runs written before network.stale_padding existed trained with the stale padding
-        if part is theirs and isinstance(part.get("network"), dict):
-            part["network"].setdefault("stale_padding", True)
         if isinstance(part.get("modules"), dict):  # written before modules.lr_relative existed
             part["modules"] = {"lr_relative": False, **part["modules"]}
+    if isinstance(theirs.get("network"), dict):  # runs written before network.stale_padding
+        theirs["network"].setdefault("stale_padding", True)  # trained with the stale padding
     keys = ["variant", "seed", "tasks", "episodes_scale", "dqn", "network"]
     if variant.modulated:  # the modules' settings change nothing in PNN, fine-tuning or EWC
         keys.append("modules")
