@@ -20,6 +20,7 @@ from typing import Any
 SUITE = {
     "biarm_overhead": "BIARM time per training step / plain PNN's (SPEC §1.3; thesis +52-87 %)",
     "biarm_floor": "BIARM / PNN parameters, update FLOPs (the method's floor) and our update's time",
+    "biarm_adam": "direct fused Adam call / Adam.step() per BIARM column, and its share of an update",
     "dqn_throughput": "our DQN training steps/s / Stable-Baselines3 DQN's, same network and schedule",
     "env_speed": "our KukaDiverseObject-v0 episodes/s / the original pybullet_envs class's",
     "evolution_speed": "Kuka episodes/CPU-s with the settled-scene cache and the skipped lift "

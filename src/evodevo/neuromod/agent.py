@@ -27,7 +27,7 @@ import torch
 from evodevo.neuromod.columns import _EMPTY, Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
-from evodevo.neuromod.flat_params import FlatParams, flatten, flatten_adam_state
+from evodevo.neuromod.flat_params import FlatParams, adam_step, flatten, flatten_adam_state
 from evodevo.neuromod.kernels import load as load_kernel
 from evodevo.neuromod.modules import Neuromodulators
 from evodevo.neuromod.replay import Batch, ReplayBuffer
@@ -221,9 +221,9 @@ class BiarmAgent:
         # gradient-norm clip (what clip_grad_norm_ does), on the one flat gradient
         total = torch.linalg.vector_norm(flat.grad)
         flat.grad.mul_(torch.clamp(dqn.grad_clip / (total + 1e-6), max=1.0))
-        if self.modules is not None:
-            self._group["lr"] = self.lr()  # Eq. 3.7 (the one param group of the flat buffer)
-        opt.step()
+        lr = self.lr()  # Eq. 3.7 (eta_base for PNN)
+        self._group["lr"] = lr  # the one param group of the flat buffer (state_dict shows it)
+        adam_step(opt, lr)  # = opt.step(), bit for bit, without its Python dispatch
         if self.learned and self.modules is not None and self.col > 0:
             self.modules.refresh()  # the per-step update's matrices copy the trained weights
         self.grad_steps += 1

@@ -23,7 +23,7 @@ from typing import Any
 
 import torch
 
-__all__ = ["FlatParams", "flatten", "flatten_adam_state"]
+__all__ = ["FlatParams", "adam_step", "flatten", "flatten_adam_state"]
 
 
 @dataclass
@@ -53,6 +53,32 @@ def flatten(params: Sequence[torch.nn.Parameter]) -> FlatParams:
     param = torch.nn.Parameter(flat)
     param.grad = grad
     return FlatParams(param, grad, tuple(p.numel() for p in params))
+
+
+def adam_step(optimizer: torch.optim.Optimizer, lr: float) -> None:
+    """``optimizer.step()`` at learning rate ``lr`` for a fused ``torch.optim.Adam`` over one
+    flat parameter, as one direct call of the fused kernel that ``step()`` ends in.
+
+    Same kernel, same state tensors (``optimizer.state_dict()`` and checkpoints unchanged), same
+    numbers bit for bit (``tests/test_biarm_fastpaths.py``); it skips ``step()``'s Python
+    dispatch (hooks, grouping by device, profiler records), which cost more than the kernel
+    itself on a 20k-parameter column (``benchmarks/biarm_adam.py``)."""
+    group = optimizer.param_groups[0]
+    (p,) = group["params"]
+    state = optimizer.state[p]
+    if not state:  # what Adam's lazy initialisation does for fused=True
+        state["step"] = torch.zeros((), dtype=torch.float32, device=p.device)
+        state["exp_avg"] = torch.zeros_like(p, memory_format=torch.preserve_format)
+        state["exp_avg_sq"] = torch.zeros_like(p, memory_format=torch.preserve_format)
+    step = state["step"]
+    step.add_(1)
+    beta1, beta2 = group["betas"]
+    torch._fused_adam_(
+        [p], [p.grad], [state["exp_avg"]], [state["exp_avg_sq"]], [], [step],
+        amsgrad=False, lr=float(lr), beta1=float(beta1), beta2=float(beta2),
+        weight_decay=float(group["weight_decay"]), eps=float(group["eps"]),
+        maximize=False, grad_scale=None, found_inf=None,
+    )  # fmt: skip
 
 
 def flatten_adam_state(state: dict[str, Any], sizes: Sequence[int]) -> dict[str, Any]:
