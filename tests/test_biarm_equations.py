@@ -189,8 +189,10 @@ def test_eq_3_7_relative_to_rest_gives_eta_base_at_rest():
     from evodevo.neuromod.config import BiarmConfig
     from evodevo.neuromod.variants import get_variant
 
-    plain = BiarmAgent(BiarmConfig(), get_variant("biarm"), obs_dim=4, seed=0)
-    rel_cfg = from_dict(BiarmConfig, {"modules": {"lr_relative": True}})
+    plain_cfg = from_dict(BiarmConfig, {"modules": {"lr_relative": False}})
+    plain = BiarmAgent(plain_cfg, get_variant("biarm"), obs_dim=4, seed=0)
+    rel_cfg = BiarmConfig()  # the default since 2026-12-05
+    assert rel_cfg.modules.lr_relative
     rel = BiarmAgent(rel_cfg, get_variant("biarm"), obs_dim=4, seed=0)
     assert plain.lr() == pytest.approx(0.0005)
     assert rel.lr() == pytest.approx(0.001)

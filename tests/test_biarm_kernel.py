@@ -17,6 +17,15 @@ from evodevo.neuromod.flat_params import flatten, flatten_adam_state
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
+#: laterals that matter from the first update (v2's): the kernels are compared on them, not on
+#: the default's zero-initialised, 1e-4-scaled ones (tests/test_biarm_lateral_scale.py)
+XAVIER = {"lateral_init": "xavier", "lateral_scale": 1.0}
+
+
+def _cfg() -> BiarmConfig:
+    """The kernels' test config: Xavier laterals at scale 1, Eq. 3.7 as written (v2)."""
+    return from_dict(BiarmConfig, {"network": XAVIER, "modules": {"lr_relative": False}})
+
 
 @pytest.fixture(scope="module")
 def ext():
@@ -226,7 +235,7 @@ def test_update_trains_every_parameter_at_the_eq_3_7_rate():
     from evodevo.neuromod.agent import BiarmAgent
     from evodevo.neuromod.variants import get_variant
 
-    agent = BiarmAgent(BiarmConfig(), get_variant("biarm"), obs_dim=4, seed=0)
+    agent = BiarmAgent(_cfg(), get_variant("biarm"), obs_dim=4, seed=0)
     agent.begin_task(2)
     agent.begin_task(3)
     frozen = [p.detach().clone() for p in agent.net.columns[0].parameters()]
@@ -295,9 +304,9 @@ def test_agent_runs_the_modules_through_the_kernel_it_resolved(ext):
     from evodevo.neuromod.config import NetworkConfig
     from evodevo.neuromod.variants import get_variant
 
-    cfg = BiarmConfig()
+    cfg = _cfg()
     fast = BiarmAgent(cfg, get_variant("biarm"), obs_dim=4, seed=0)
-    slow_cfg = replace(cfg, network=NetworkConfig(lateral_kernel="torch"))
+    slow_cfg = replace(cfg, network=NetworkConfig(**XAVIER, lateral_kernel="torch"))
     slow = BiarmAgent(slow_cfg, get_variant("biarm"), obs_dim=4, seed=0)
     assert fast.modules is not None and fast.modules._kernel is ext
     assert slow.modules is not None and slow.modules._kernel is None
@@ -312,8 +321,8 @@ def _td_agents(variant: str, ncol: int, learn_context: bool = True):
     out = {}
     for k in ("cpp", "torch"):
         cfg = replace(
-            BiarmConfig(),
-            network=NetworkConfig(lateral_kernel=k),
+            _cfg(),
+            network=NetworkConfig(**XAVIER, lateral_kernel=k),
             modules=ModuleConfig(learn_context_weights=learn_context),
         )
         agent = BiarmAgent(cfg, get_variant(variant), obs_dim=6, seed=0)
@@ -377,13 +386,13 @@ def test_td_update_kernel_is_not_used_where_autograd_is_needed(ext):
     from evodevo.neuromod.config import ModuleConfig
     from evodevo.neuromod.variants import get_variant
 
-    learned = replace(BiarmConfig(), modules=ModuleConfig(learning="learned"))
+    learned = replace(_cfg(), modules=ModuleConfig(learning="learned"))
     for cfg, variant, uses in (
-        (BiarmConfig(), "biarm", True),
-        (BiarmConfig(), "pnn", True),
+        (_cfg(), "biarm", True),
+        (_cfg(), "pnn", True),
         (learned, "biarm", False),  # per-sample gates, gradients into the module networks
-        (BiarmConfig(), "ewc", False),
-        (BiarmConfig(), "finetune", False),
+        (_cfg(), "ewc", False),
+        (_cfg(), "finetune", False),
     ):
         agent = BiarmAgent(cfg, get_variant(variant), obs_dim=4, seed=0)
         agent.begin_task(2)
@@ -401,9 +410,9 @@ def test_agent_observe_through_the_kernel_equals_the_numpy_step(ext):
     from evodevo.neuromod.config import NetworkConfig
     from evodevo.neuromod.variants import get_variant
 
-    cfg = BiarmConfig()
+    cfg = _cfg()
     fast = BiarmAgent(cfg, get_variant("biarm"), obs_dim=6, seed=2)
-    ref_cfg = replace(cfg, network=NetworkConfig(lateral_kernel="torch"))
+    ref_cfg = replace(cfg, network=NetworkConfig(**XAVIER, lateral_kernel="torch"))
     ref = BiarmAgent(ref_cfg, get_variant("biarm"), obs_dim=6, seed=2)
     assert fast.modules is not None and ref.modules is not None
     rng = np.random.default_rng(0)

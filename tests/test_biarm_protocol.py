@@ -212,9 +212,10 @@ def test_config_files_match_the_protocols():
     assert to_dict(from_dict(BiarmConfig, default)) == to_dict(protocol_config("default"))
     v1 = yaml.safe_load((ROOT / "configs" / "biarm_spec_v1.yaml").read_text())
     assert to_dict(from_dict(BiarmConfig, v1)) == to_dict(protocol_config("v1"))
-    scaled = yaml.safe_load((ROOT / "configs" / "biarm_scaled.yaml").read_text())
-    assert to_dict(from_dict(BiarmConfig, scaled)) == to_dict(protocol_config("scaled"))
-    assert set(PROTOCOLS) == {"default", "scaled", "v1"}
+    v2 = yaml.safe_load((ROOT / "configs" / "biarm_v2.yaml").read_text())
+    assert to_dict(from_dict(BiarmConfig, v2)) == to_dict(protocol_config("v2"))
+    assert to_dict(protocol_config("scaled")) == to_dict(protocol_config("default"))
+    assert set(PROTOCOLS) == {"default", "scaled", "v2", "v1"}
 
 
 def _strip(obj: Any) -> Any:
@@ -325,7 +326,7 @@ def test_runs_written_before_lateral_init_resume_as_xavier(tmp_path):
     from evodevo.runs import RunDir
 
     run = RunDir(tmp_path / "old")
-    cfg = BiarmConfig()
+    cfg = protocol_config("v2")  # Xavier laterals, as every run before the key
     old = {"variant": "pnn", "seed": 0, **to_dict(cfg)}
     del old["network"]["lateral_init"]
     run.write_config(old, kind="biarm")

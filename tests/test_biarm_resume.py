@@ -89,8 +89,14 @@ def test_killed_mid_task_resumes_to_the_uninterrupted_run(
     partials = sorted(p.name for p in (tmp_path / "cut" / "checkpoints").glob("*_ep*.pt"))
     assert partials == [f"task{task}_ep2.pt"]  # only the newest mid-task file is kept
     assert not (tmp_path / "cut" / "summary.json").exists()
+    before = load_checkpoint(point.path)["elapsed"]
+    assert before["cpu_seconds"] > 0 and before["timing_complete"]
     train(cfg, variant, 4, tmp_path / "cut", resume=True)
     _same_run(tmp_path / "full", tmp_path / "cut")
+    # the summary's time covers both sessions, not only the resumed one
+    after = RunDir(tmp_path / "cut").read_summary()
+    assert after["cpu_seconds"] > before["cpu_seconds"] and after["timing_complete"]
+    assert after["wall_seconds"] > before["wall_seconds"]
     # finished tasks supersede their mid-task files
     assert not list((tmp_path / "cut" / "checkpoints").glob("*_ep*.pt"))
 

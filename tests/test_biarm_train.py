@@ -122,8 +122,9 @@ def test_neuromod_csv_lr_is_eq_3_7_and_ablation_holds_half(tmp_path):
     for r in rows:
         s = [float(r[f"s_{m}"]) for m in MODULE_NAMES]
         assert float(r["s_NE"]) == 0.5
+        rest = 0.5 * 1.0  # modules.lr_relative (default): Eq. 3.7 / (initial_state * sum w)
         assert float(r["lr"]) == pytest.approx(
-            effective_lr(1e-3, s, [0.3, 0.2, 0.3, 0.2]), rel=1e-4
+            effective_lr(1e-3, s, [0.3, 0.2, 0.3, 0.2]) / rest, rel=1e-4
         )
         assert all(0.0 <= v <= 1.0 for v in s)
     gates = [r["gate"] for r in rows if r["task"] == "1"]

@@ -145,15 +145,15 @@ class NetworkConfig:
         "columns of PNN and BIARM), torch (PyTorch/NumPy ops), auto (cpp when it builds)",
     )
     lateral_init: str = doc(
-        "xavier",
-        "initial lateral maps U of a new column (SPEC §1.2, §1.6): xavier (v1), or zero (the "
-        "new column starts as an isolated column and learns to read the earlier ones)",
+        "zero",
+        "initial lateral maps U of a new column (SPEC §1.2, §1.6): zero (the new column starts "
+        "as an isolated column and learns to read the earlier ones), or xavier (v1, v2)",
     )
     lateral_scale: float = doc(
-        1.0,
+        0.0001,
         "fixed factor on the earlier columns' activations a new column's laterals read "
         "(Rusu et al. 2016's input scale, not learned; SPEC §1.2): under Adam it scales the "
-        "laterals' initial size and their learning rate alike; 1.0 = v1",
+        "laterals' initial size and their learning rate alike; 1.0 = v1, v2",
     )
     stale_padding: bool = doc(
         False,
@@ -197,10 +197,10 @@ class ModuleConfig:
     novelty_decay: float = doc(0.995, "n_task multiplier after every environment step (Eq. 3.5)")
     lr_weights: list[float] = doc([0.3, 0.2, 0.3, 0.2], "Eq. 3.7 weights (DA, 5HT, NE, ACh)")
     lr_relative: bool = doc(
-        False,
+        True,
         "Eq. 3.7 relative to the resting state: eta_eff = eta_base * sum w_m s_m / (initial_state "
-        "* sum w_m), so eta_base is the rate at rest (false: Eq. 3.7 as written, half of eta_base "
-        "at rest)",
+        "* sum w_m), so eta_base is the rate at rest (false, v1 and v2: Eq. 3.7 as written, half "
+        "of eta_base at rest)",
     )
     context_weights: list[float] = doc(
         [0.3, 0.2, 0.3, 0.2], "initial w_m of the context gate of Eq. 3.8 (DA, 5HT, NE, ACh)"

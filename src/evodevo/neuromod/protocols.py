@@ -3,25 +3,28 @@
 A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig`'s defaults
 (only keys Table 3.1 and SPEC §1.2 do not fix). ``default`` is the config's defaults, the
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
-a soft target (τ 0.005), the best validated network kept. ``scaled`` is a candidate: the same
-with the earlier columns' activations scaled by ``network.lateral_scale`` = 0.0001 where a new
-column reads them, a new column's lateral maps starting at zero (``network.lateral_init``: it
-starts as an isolated column), and BIARM's Eq. 3.7 taken relative to the modules' resting state
-(``modules.lr_relative``: η_base at rest instead of η_base / 2; PNN is unaffected) — measured on
-MountainCar only, not yet on the whole sequence; ``v1`` is the first protocol, under which the committed first results
-(``docs/results/thesis/biarm``) were measured: ε × 0.995 per *episode*, a hard target copy
-every 500 gradient steps, no double Q, the last network kept, unscaled laterals.
-``configs/biarm.yaml``, ``configs/biarm_scaled.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
-same three configs as files.
+a soft target (τ 0.005), the best validated network kept, the earlier columns' activations
+scaled by ``network.lateral_scale`` = 0.0001 where a new column reads them, a new column's
+lateral maps starting at zero (``network.lateral_init``: it starts as an isolated column), and
+BIARM's Eq. 3.7 taken relative to the modules' resting state (``modules.lr_relative``: η_base
+at rest instead of η_base / 2; PNN is unaffected). ``scaled`` is the same protocol under the
+name its first full runs (``docs/results/thesis/biarm_scaled``) were made with.
+``v2`` is the previous default (``docs/results/thesis/biarm_default``): the same DQN details with
+unscaled, Xavier-initialised laterals and Eq. 3.7 as written. ``v1`` is the first protocol,
+under which the committed first results (``docs/results/thesis/biarm``) were measured: ε × 0.995
+per *episode*, a hard target copy every 500 gradient steps, no double Q, the last network kept,
+unscaled laterals, and the padding bug (``network.stale_padding``).
+``configs/biarm.yaml``, ``configs/biarm_v2.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
+three configs as files.
 
 >>> protocol_config("v1").dqn.eps_unit
 'episode'
 >>> protocol_config("default").dqn.eps_unit
 'step'
->>> protocol_config("scaled").network.lateral_scale
+>>> protocol_config("default").network.lateral_scale
 0.0001
->>> protocol_config("scaled").network.lateral_init
-'zero'
+>>> protocol_config("v2").network.lateral_init
+'xavier'
 """
 
 from __future__ import annotations
@@ -38,9 +41,10 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    "scaled": {
-        "network": {"lateral_scale": 0.0001, "lateral_init": "zero"},
-        "modules": {"lr_relative": True},
+    "scaled": {},  # the name of the default's first full runs (thesis/biarm_scaled)
+    "v2": {
+        "network": {"lateral_scale": 1.0, "lateral_init": "xavier"},
+        "modules": {"lr_relative": False},
     },
     "v1": {
         "dqn": {
@@ -51,6 +55,7 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
             "keep": "last",
         },
         "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
+        "modules": {"lr_relative": False},
     },
 }
 

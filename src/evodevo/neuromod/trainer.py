@@ -66,7 +66,7 @@ __all__ = [
 METRIC_FIELDS = ["task", "env_id", "episode", "return", "length", "epsilon", "lr", "step"]
 NEUROMOD_FIELDS = ["step", "task", *[f"s_{m}" for m in MODULE_NAMES], "n_task", "lr", "gate"]
 #: Summary keys that hold wall-clock measurements (excluded from reproducibility checks).
-TIMING_KEYS = ("us_per_step", "wall_seconds", "cpu_seconds")
+TIMING_KEYS = ("us_per_step", "wall_seconds", "cpu_seconds", "timing_complete")
 
 
 @dataclass(frozen=True)
@@ -413,9 +413,12 @@ def train(
     step = 0
     start = 0
     partial: dict[str, Any] | None = None
+    # time spent before the resume point (checkpoints carry it; older ones do not)
+    before: dict[str, Any] = {"wall_seconds": 0.0, "cpu_seconds": 0.0, "timing_complete": True}
     if resume and point is not None:
         ckpt = load_checkpoint(point.path)
         _check_payload(ckpt, point.path, var, seed)
+        before = dict(ckpt.get("elapsed", {**before, "timing_complete": False}))
         results = list(ckpt["results"])
         step = int(ckpt["step"])
         if point.finished_task:
@@ -436,6 +439,16 @@ def train(
     hint = resume_hint(run.path)
     t_start = time.perf_counter()
     cpu_start = time.process_time()  # this process only: robust to other jobs sharing cores
+
+    def elapsed() -> dict[str, Any]:
+        """Wall and CPU seconds of the run so far, summed over the sessions that resumed it
+        (the work after the newest checkpoint of a killed session is not counted: it is redone)."""
+        return {
+            "wall_seconds": before["wall_seconds"] + time.perf_counter() - t_start,
+            "cpu_seconds": before["cpu_seconds"] + time.process_time() - cpu_start,
+            "timing_complete": bool(before["timing_complete"]),
+        }
+
     with (
         CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
         CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
@@ -469,6 +482,7 @@ def train(
                                 "step": runner.step,
                                 "variant": var.name,
                                 "seed": seed,
+                                "elapsed": elapsed(),
                             },
                         )
                         if stop is not None:
@@ -506,6 +520,7 @@ def train(
                     "step": step,
                     "variant": var.name,
                     "seed": seed,
+                    "elapsed": elapsed(),
                 },
             )
             if stop is not None and i + 1 < len(specs):
@@ -535,8 +550,9 @@ def train(
         "eval_seeds": seeds,
         "tasks": tasks,
         "final_states": agent.modules.states.tolist() if agent.modules is not None else None,
-        "wall_seconds": time.perf_counter() - t_start,
-        "cpu_seconds": time.process_time() - cpu_start,
+        # summed over resumed sessions; timing_complete false: resumed from a checkpoint
+        # written before checkpoints carried the time, so only the time since then is counted
+        **elapsed(),
     }
     run.write_summary(summary)
     return summary

@@ -87,9 +87,12 @@ def protocol_table(out: Path, cfg: Any) -> list[str]:
         "Final greedy return per task, mean [bootstrap 95 % CI] over seeds, on the SPEC §1.7 "
         "evaluation seeds; BIARM − PNN is paired by seed (exact sign-flip test over seeds). "
         "`v1`: ε × 0.995 per episode, hard target copy every 500 gradient steps, the last "
-        "network; `default`: ε × 0.995 per environment step, soft target (τ 0.005), the column "
-        "that scored best on validation seeds (the protocol the sweep picked, "
-        "docs/results/biarm.md).",
+        "network, unscaled Xavier laterals, and MountainCar's padded inputs left stale (the "
+        "padding bug); `v2`: ε × 0.995 per environment step, soft target (τ 0.005), the column "
+        "that scored best on validation seeds (its runs also had the padding bug); `default` "
+        "(`scaled`): v2 with the earlier columns' activations × 0.0001 where a new column's "
+        "zero-initialised laterals read them, Eq. 3.7 relative to the modules' resting state, "
+        "and zero padding (docs/results/biarm.md).",
         "",
         *rows,
         "",

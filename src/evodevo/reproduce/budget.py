@@ -47,7 +47,8 @@ class BiarmBudget:
         {}, "training episodes of named tasks, instead of thesis episodes x episodes_scale"
     )
     protocol: str = doc(
-        "default", "DQN protocol of the grid in biarm/ (SPEC §1.6): default, scaled, v1"
+        "default",
+        "DQN protocol of the grid in biarm/ (SPEC §1.6): default, v2, v1 (scaled = default)",
     )
     other_protocols: dict[str, str] = doc(
         {"biarm_v1": "v1"},
