@@ -1,0 +1,74 @@
+"""Per-seed table of a full-sequence BIARM/PNN grid (issue 21; SPEC §1.7), for docs/results/biarm.md.
+
+    python docs/results/biarm_sweep/sequence_table.py docs/results/thesis/biarm_scaled
+
+For every finished run (``runs/<variant>__s<seed>/summary.json``): the final greedy return per
+task on the 20 evaluation seeds, the MountainCar training episodes that reached the flag
+(return > −200, from ``metrics.csv``) and the run's CPU minutes (summed over resumed sessions
+when ``timing_complete``; else marked "≥"). Then per task: the mean over seeds of each variant,
+the thesis' Table 3.2, and BIARM − PNN paired by seed with the exact sign-flip test.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+from evodevo.neuromod.thesis_numbers import TABLE_3_2
+from evodevo.stats import permutation_test
+
+ENVS = ("CartPole-v1", "Acrobot-v1", "MountainCar-v0", "LunarLander-v3")
+
+
+def _flags(run: Path) -> int:
+    with (run / "metrics.csv").open() as f:
+        return sum(
+            1
+            for r in csv.DictReader(f)
+            if r["env_id"] == "MountainCar-v0" and float(r["return"]) > -200
+        )
+
+
+def main(grid: Path) -> None:
+    finals: dict[str, dict[int, dict[str, float]]] = {}
+    print(
+        "| run | " + " | ".join(e.split("-")[0] for e in ENVS) + " | MountainCar flags | CPU min |"
+    )
+    print("|---" * (len(ENVS) + 3) + "|")
+    for run in sorted((grid / "runs").glob("*__s*")):
+        if not (run / "summary.json").is_file():
+            continue
+        s = json.loads((run / "summary.json").read_text())
+        by_env = {t["env_id"]: float(t["final_return"]) for t in s["tasks"]}
+        finals.setdefault(s["variant"], {})[int(s["seed"])] = by_env
+        cpu = s["cpu_seconds"] / 60
+        mark = "" if s.get("timing_complete", False) else "≥ "
+        cells = " | ".join(f"{by_env.get(e, float('nan')):.2f}" for e in ENVS)
+        print(f"| {run.name} | {cells} | {_flags(run)} of 800 | {mark}{cpu:.1f} |")
+    print()
+    print(
+        "| task | PNN mean (n) | BIARM mean (n) | thesis PNN / BIARM | BIARM − PNN paired (p; seeds higher) |"
+    )
+    print("|---|---|---|---|---|")
+    for e in ENVS:
+        pnn = {k: v[e] for k, v in finals.get("pnn", {}).items() if e in v}
+        bi = {k: v[e] for k, v in finals.get("biarm", {}).items() if e in v}
+        seeds = sorted(set(pnn) & set(bi))
+        diff = "–"
+        if len(seeds) >= 2:
+            d = [bi[k] - pnn[k] for k in seeds]
+            p = permutation_test([bi[k] for k in seeds], [pnn[k] for k in seeds], paired=True)
+            diff = f"{sum(d) / len(d):+.1f} (p = {p:.2g}; {sum(x > 0 for x in d)}/{len(d)})"
+        th = TABLE_3_2.get(e)
+        thesis = f"{th['pnn'][0]:.1f} / {th['biarm'][0]:.1f}" if th else "–"
+
+        def mean(v: dict[int, float]) -> str:
+            return f"{sum(v.values()) / len(v):.1f} ({len(v)})" if v else "–"
+
+        print(f"| {e} | {mean(pnn)} | {mean(bi)} | {thesis} | {diff} |")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1] if len(sys.argv) > 1 else "docs/results/thesis/biarm_scaled"))
