@@ -128,6 +128,7 @@ def second_preset() -> None:
     variants = (
         ("vision2_noes_s*", "no early stop"),  # the same preset, evolution.early_stop false
         ("vision3_grasp_s*", "reach at the grasp"),  # + evaluation.distance_at grasp, weight 2
+        ("vision2_blind_s*", "blind GRN (no-early-stop preset)"),  # visual features zeroed
     )
     for pattern, label in variants:
         mine: dict[str, list[int]] = {}
