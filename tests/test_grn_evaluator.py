@@ -75,6 +75,25 @@ def test_interrupted_run_resumes_exactly(tmp_path):
     assert history(tmp_path / "full") == history(tmp_path / "cut")
 
 
+def test_extending_a_finished_run_equals_a_longer_run(tmp_path):
+    """--resume with more generations continues as if the run had been started with them."""
+    import json
+
+    short = fake_config(evolution={"generations": 2, "early_stop": False})
+    longer = fake_config(evolution={"generations": 4, "early_stop": False})
+    evolve_run(longer, tmp_path / "long", progress=False)
+    evolve_run(short, tmp_path / "ext", progress=False)
+    summary = evolve_run(longer, tmp_path / "ext", resume=True, progress=False)
+    assert history(tmp_path / "long") == history(tmp_path / "ext")
+    assert summary["generations_run"] == 4 and summary["reevaluated_generations"] == []
+    saved = json.loads((tmp_path / "ext" / "config.json").read_text())
+    assert saved["config"]["evolution"]["generations"] == 4
+    assert saved["extended_from_generations"] == [2]
+    # fewer generations, or any other change, is still refused
+    with pytest.raises(EvodevoError, match="only --generations may grow"):
+        evolve_run(short, tmp_path / "ext", resume=True, progress=False)
+
+
 def test_elites_pass_unchanged_and_every_genome_is_reevaluated():
     cfg = fake_config(
         evolution={"population": 5, "elite_fraction": 0.4, "generations": 3, "early_stop": False}

@@ -34,7 +34,7 @@ from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.selection import rank, tournament
-from evodevo.runs import RunDir, machine_info
+from evodevo.runs import RunDir, machine_info, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
 
@@ -147,6 +147,10 @@ class Evolution:
         self.episodes_run = 0
         self.env_steps = 0
         self.episodes_saved = 0
+        self.bred_at_end = True
+        self.reevaluated: list[int] = []
+        """Generations that evaluated the previous generation's population again (an
+        extension of a run whose checkpoint predates breeding after the last generation)."""
 
     @property
     def done(self) -> bool:
@@ -156,6 +160,9 @@ class Evolution:
         """Evaluate the current population, check the early stop, breed the next one."""
         cfg, evo_cfg = self.config, self.config.evolution
         t0 = time.perf_counter()
+        if not self.bred_at_end:
+            self.reevaluated.append(self.generation)
+            self.bred_at_end = True
         episodes = training_episodes(
             cfg.seed,
             EPISODE_KEY,
@@ -188,7 +195,10 @@ class Evolution:
             steps += re.env_steps
             self.stopped_early = retest >= evo_cfg.retest_success
         conns = [self.controller.connections(g) for g in self.population]
-        if not self.stopped_early and self.generation + 1 < evo_cfg.generations:
+        # breed after the last generation too: the checkpoint then holds the population a
+        # longer run would evaluate next, so extending the run (--resume with more
+        # generations) continues exactly as if it had been started with them
+        if not self.stopped_early:
             elites = [self.population[i] for i in order[: evo_cfg.elites]]
             children = [
                 self.controller.mutate(
@@ -254,6 +264,8 @@ class Evolution:
             "episodes_saved": self.episodes_saved,
             "rng_state": self.rng.bit_generator.state,
             "history": [asdict(r) for r in self.history],
+            "bred": True,
+            "reevaluated": self.reevaluated,
         }
         save_arrays(path, "grn_checkpoint", arrays, json.loads(json.dumps(meta, default=float)))
 
@@ -280,6 +292,10 @@ class Evolution:
         self.episodes_saved = int(meta.get("episodes_saved", 0))
         self.rng.bit_generator.state = meta["rng_state"]
         self.history = [GenerationRecord(**r) for r in meta["history"]]
+        # checkpoints written before 2026-12-05 did not breed after the last generation: an
+        # extension of such a run first re-evaluates that population, then breeds
+        self.bred_at_end = bool(meta.get("bred", False)) or self.generation == 0
+        self.reevaluated = [int(g) for g in meta.get("reevaluated", [])]
 
 
 class StopOnSignal(Hook):
@@ -337,6 +353,7 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
         "episodes_run": evo.episodes_run,
         "env_steps": evo.env_steps,
         "episodes_saved": evo.episodes_saved,
+        "reevaluated_generations": evo.reevaluated,
         "best_fitness": h[-1].best_fitness if h else None,
         "best_training_success": h[-1].best_success if h else None,
         "budget": {
@@ -348,18 +365,31 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
     }
 
 
-def _check_same_config(run: RunDir, config: Any, cfg_dict: dict[str, Any]) -> None:
-    """Refuse to resume a run whose saved config differs from ``config``."""
+def _check_same_config(run: RunDir, config: Any, cfg_dict: dict[str, Any]) -> int | None:
+    """Refuse to resume a run whose saved config differs from ``config``.
+
+    The one difference allowed is more ``evolution.generations`` (extending a run, e.g. to
+    measure what a larger budget buys); returns the saved generations then, else None.
+    """
     saved = run.read_config().get("config")
     try:  # fields added to the config since the run started take their defaults
         saved = to_dict(from_dict(type(config), saved or {}))
     except ConfigError:
         saved = None
+    extended = None
+    if saved is not None:
+        old = int(saved["evolution"]["generations"])
+        if cfg_dict["evolution"]["generations"] > old:
+            extended = old
+            saved = {**saved, "evolution": {**saved["evolution"]}}
+            saved["evolution"]["generations"] = cfg_dict["evolution"]["generations"]
     if saved != cfg_dict:
         raise EvodevoError(
             f"--resume: the config differs from the one saved in {str(run / 'config.json')!r}; "
-            "resume with the same options or start a new run directory"
+            "resume with the same options (only --generations may grow) or start a new run "
+            "directory"
         )
+    return extended
 
 
 def evolve_run(
@@ -395,9 +425,20 @@ def evolve_run(
         _check_same_config(run, config, cfg_dict)
         # killed before the first generation's checkpoint: nothing to continue, start it again
         resume = False
+    extended: int | None = None
     if resume:
-        _check_same_config(run, config, cfg_dict)
+        extended = _check_same_config(run, config, cfg_dict)
         encoder = load_frontend(config, run.path)
+        if extended is not None:  # the saved config records the budget the run now has
+            saved = run.read_config()
+            saved["config"] = cfg_dict
+            saved.setdefault("extended_from_generations", []).append(extended)
+            write_json(run.path / "config.json", saved)
+            print(
+                f"extending {str(run.path)!r} from {extended} to "
+                f"{config.evolution.generations} generations",
+                file=sys.stderr,
+            )
     else:
         if ckpt.is_file():
             raise EvodevoError(
