@@ -155,7 +155,12 @@ def evolve(
     controller: str | None = typer.Option(None, help="Controller kind [plain]."),
     blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
     open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
-    resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
+    resume: bool = typer.Option(
+        False,
+        "--resume",
+        help="Continue an interrupted run in --out; with a larger --generations, extend a "
+        "finished one (what a larger budget buys).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", help="No progress line per generation."),
     backend: str = typer.Option("local", help=BACKEND_HELP),
     address: str | None = typer.Option(None, help=ADDRESS_HELP),
