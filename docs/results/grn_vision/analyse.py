@@ -154,6 +154,7 @@ def second_preset() -> None:
         if not noes:
             noes = mine
 
+
 if __name__ == "__main__":
     main()
     second_preset()

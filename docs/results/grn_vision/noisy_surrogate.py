@@ -62,10 +62,14 @@ ROWS: dict[str, dict[str, Any]] = {
     "preset, 24 x 4 x 18 (1728)": _budget(24, 4, 18),
     "preset, 48 x 3 x 12 (1728)": _budget(48, 3, 12),
     "preset, 24 x 3 x 25 (1800)": _budget(24, 3, 25),
-    "24 x 4 x 18, 3 x distance": _merge(_budget(24, 4, 18), {"evaluation": {"distance_weight": 3.0}}),
+    "24 x 4 x 18, 3 x distance": _merge(
+        _budget(24, 4, 18), {"evaluation": {"distance_weight": 3.0}}
+    ),
     "preset, 2 x budget (12 x 10 x 30)": _budget(12, 10, 30),
     "24 x 5 x 30 (2 x budget)": _budget(24, 5, 30),
-    "3 x distance, 2 x budget": _merge({"evaluation": {"distance_weight": 3.0}}, _budget(12, 10, 30)),
+    "3 x distance, 2 x budget": _merge(
+        {"evaluation": {"distance_weight": 3.0}}, _budget(12, 10, 30)
+    ),
 }
 
 
