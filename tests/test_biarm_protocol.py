@@ -61,6 +61,31 @@ def test_epsilon_after_k_steps_or_episodes(unit):
     assert k > 2 or unit == "episode"
 
 
+# ---------------------------------------------------------------- train_every
+@pytest.mark.parametrize("every", [1, 3])
+def test_train_every_k_steps_counts_gradient_steps(every, monkeypatch):
+    cfg = cfg_with(train_every=every, learning_starts=8)
+    specs, d_max = resolve_tasks(cfg)
+    agent = BiarmAgent(cfg, get_variant("pnn"), d_max, 0)
+    at: list[int] = []
+    original = agent.update
+
+    def spy(batch):
+        at.append(runner.buf.size - 1)  # index of the task's step just stored
+        return original(batch)
+
+    monkeypatch.setattr(agent, "update", spy)
+    runner = TaskRunner(agent, specs[0], 0, seed=0)
+    try:
+        n = sum(runner.episode() for _ in range(2))
+    finally:
+        runner.close()
+    # by hand: after the step with index t (0-based, buffer size t + 1 >= learning_starts),
+    # a gradient step when (t + 1) is a multiple of every
+    expected = [t for t in range(n) if t + 1 >= 8 and (t + 1) % every == 0]
+    assert at == expected and len(at) > 3
+
+
 # ---------------------------------------------------------------- target network
 def _agent_after_updates(n: int, **dqn: Any) -> BiarmAgent:
     cfg = cfg_with(**dqn)
@@ -195,6 +220,7 @@ def test_keep_best_run_records_validation(tmp_path):
         ({"dqn": {"keep": "first"}}, ("dqn.keep", "'first'")),
         ({"dqn": {"tau": 0.0}}, ("dqn.tau=0.0", "(0, 1]")),
         ({"dqn": {"tau": 1.5}}, ("dqn.tau=1.5", "(0, 1]")),
+        ({"dqn": {"train_every": 0}}, ("dqn.train_every=0",)),
         ({"eval": {"validation_episodes": 0}}, ("eval.validation_episodes=0",)),
         ({"eval": {"validation_seed": 10_010}}, ("eval.validation_seed=10010", "overlap")),
     ],

@@ -28,7 +28,8 @@ Settings (SPEC §1.6, the ``dqn`` section of the run config; the same for every 
 * the closest SB3 settings to the rest of the protocol: ``dqn.target_mode: soft`` is SB3's
   ``tau`` with ``target_update_interval=1`` (a Polyak update every environment step, ours every
   gradient step: the same after ``learning_starts``); ``hard`` is ``tau=1`` every
-  ``dqn.target_update`` steps. SB3's DQN has no double Q-learning: with ``dqn.double_q`` the
+  ``dqn.target_update`` steps; ``dqn.train_every`` is SB3's ``train_freq`` (and scales the
+  target interval, which SB3 counts in environment steps). SB3's DQN has no double Q-learning: with ``dqn.double_q`` the
   baseline still uses the plain max target (its summary says ``sb3_double_q: false``).
   ``dqn.keep: best`` validates the model every ``eval.validation_every`` episodes and after the
   last on the validation seeds, as SB3's ``EvalCallback`` does, and the task keeps the best
@@ -263,9 +264,10 @@ def build_dqn(cfg: BiarmConfig, env: Any, seed: int) -> DQN:
         learning_starts=d.learning_starts,
         batch_size=d.batch_size,
         gamma=d.gamma,
-        train_freq=1,
+        train_freq=d.train_every,
         gradient_steps=1,
-        target_update_interval=1 if d.target_mode == "soft" else d.target_update,
+        # SB3 counts environment steps; ours are gradient steps (one per dqn.train_every)
+        target_update_interval=d.train_every * (1 if d.target_mode == "soft" else d.target_update),
         tau=d.tau if d.target_mode == "soft" else 1.0,
         exploration_initial_eps=d.eps_start,
         exploration_final_eps=d.eps_min,

@@ -90,6 +90,11 @@ class DQNConfig:
     target_update: int = doc(500, "gradient steps between hard target-network copies (hard)")
     tau: float = doc(0.005, "soft target rate: target <- (1 - tau) target + tau online (soft)")
     double_q: bool = doc(False, "double Q-learning: the online column picks the next action")
+    train_every: int = doc(
+        1,
+        "environment steps per gradient step (Table 3.1 is silent; 1 = every step, as in v1 "
+        "and v2; SB3's DQN default is 4)",
+    )
     keep: Literal["last", "best"] = doc(
         "best",
         "network a task keeps when frozen: last, or best by greedy validation return "
@@ -110,6 +115,7 @@ class DQNConfig:
             ("dqn.grad_clip", self.grad_clip > 0),
             ("dqn.target_update", self.target_update >= 1),
             ("dqn.tau", 0 < self.tau <= 1),
+            ("dqn.train_every", self.train_every >= 1),
         ]
         for key, ok in checks:
             if not ok:

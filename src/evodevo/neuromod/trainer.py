@@ -222,7 +222,7 @@ class TaskRunner:
         decay = cfg.modules.novelty_decay
         mods = agent.modules
         neuromod = self.neuromod
-        bs, starts = dqn.batch_size, dqn.learning_starts
+        bs, starts, every = dqn.batch_size, dqn.learning_starts, dqn.train_every
         per_step = dqn.eps_unit == "step"
         eps_decay, eps_min = dqn.eps_decay, dqn.eps_min
         eps0 = eps
@@ -231,6 +231,7 @@ class TaskRunner:
         obs = self._obs if ep == 0 else self.env.reset()[0]
         row[:n] = obs.reshape(-1)
         ret, length, updates = 0.0, 0, 0
+        warm = buf.size + 1 >= starts  # every step of this episode trains (timing below)
         t0 = time.perf_counter()
         while True:
             a = agent.act(eps, rng)
@@ -240,7 +241,8 @@ class TaskRunner:
             n_task = mods.n_task if mods is not None else decay**task_steps
             agent.observe(row, r)
             buf.add(row, a, r, nxt, term, n_task)
-            if buf.size >= starts:
+            # SPEC §1.6: a gradient step every dqn.train_every environment steps of the task
+            if buf.size >= starts and (every == 1 or task_steps % every == every - 1):
                 agent.update(buf.sample(rng, bs))
                 updates += 1
             step += 1
@@ -257,7 +259,7 @@ class TaskRunner:
                 break
         dt = time.perf_counter() - t0
         self.step, self.task_steps = step, task_steps
-        if updates == length:
+        if warm and updates:
             self.per_step.append(dt / length)
         if self.metrics is not None:
             self.metrics.write(
@@ -334,6 +336,8 @@ def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) ->
             part["network"].setdefault("lateral_scale", 1.0)
         if isinstance(part.get("modules"), dict):  # written before modules.lr_relative existed
             part["modules"] = {"lr_relative": False, **part["modules"]}
+    if isinstance(theirs.get("dqn"), dict):  # runs written before dqn.train_every: every step
+        theirs["dqn"].setdefault("train_every", 1)
     if isinstance(theirs.get("network"), dict):  # runs written before network.stale_padding
         theirs["network"].setdefault("stale_padding", True)  # trained with the stale padding
     keys = ["variant", "seed", "tasks", "episodes_scale", "dqn", "network"]
