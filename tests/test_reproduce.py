@@ -54,6 +54,19 @@ def test_plan_covers_every_part(tmp_path):
     assert mod_ab.outputs[0].name == "modulator_ablations.csv"
 
 
+@pytest.mark.parametrize("vision_budget", ["same", "preset"])
+def test_vision_runs_use_their_preset_budget_when_asked(tmp_path, vision_budget):
+    cfg = preset("thesis")
+    cfg.grn.vision_budget = vision_budget
+    steps = {s.name: s for s in plan(cfg, tmp_path)}
+    assert steps["grn-evolve-plain-s0"].argv[2:4] == ["--population", "12"]
+    for name in ("grn-evolve-vision-s0", "grn-evolve-vision_blind-s0"):
+        own = "--population" not in steps[name].argv
+        assert own == (vision_budget == "preset"), steps[name].argv
+    with pytest.raises(ConfigError, match="grn.vision_budget='huge'"):
+        from_dict(ReproduceConfig, {"grn": {"vision_budget": "huge"}})
+
+
 def test_plan_reuses_baselines_and_runs_controls_early(tmp_path):
     steps = plan(preset("thesis"), tmp_path)
     names = [s.name for s in steps]

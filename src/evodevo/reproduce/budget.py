@@ -102,6 +102,11 @@ class GrnBudget:
         "GRN controller kinds to evolve (SPEC §2, §5), thesis preset; vision = the plain GRN "
         "with the default preset (blob front-end, issue 22), beside them in the report",
     )
+    vision_budget: str = doc(
+        "same",
+        "budget of the vision runs (and their blind control): same (population, generations, "
+        "episodes above) or preset (the vision preset's own, configs/grn_vision.yaml)",
+    )
 
     def validate(self) -> None:
         for name in (
@@ -114,6 +119,10 @@ class GrnBudget:
         ):
             if getattr(self, name) < 1:
                 raise ConfigError(f"grn.{name}={getattr(self, name)} must be >= 1")
+        if self.vision_budget not in ("same", "preset"):
+            raise ConfigError(
+                f"grn.vision_budget={self.vision_budget!r} is not one of same, preset"
+            )
 
 
 KUKA_METHODS = ("ppo", "td3", "neat")

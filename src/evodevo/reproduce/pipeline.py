@@ -159,18 +159,22 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
         late: list[Step] = []
         for label, _controller, seed, flags in _grn_runs(cfg, out):
             rdir = out / "grn" / f"{label}_s{seed}"
+            own = g.vision_budget == "preset" and label.startswith("vision")
+            budget = [] if own else [
+                "--population",
+                str(g.population),
+                "--generations",
+                str(g.generations),
+                "--episodes",
+                str(g.episodes),
+            ]  # fmt: skip
             steps.append(
                 Step(
                     f"grn-evolve-{label}-s{seed}",
                     [
                         "grn",
                         "evolve",
-                        "--population",
-                        str(g.population),
-                        "--generations",
-                        str(g.generations),
-                        "--episodes",
-                        str(g.episodes),
+                        *budget,
                         "--seed",
                         str(seed),
                         "--workers",

@@ -188,7 +188,13 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "## GRN controller (thesis Chapter 4)",
         "",
         f"Budget per evolution: population {g.population}, ≤ {g.generations} generations, "
-        f"{g.episodes} episodes per genome (70 % clean / 30 % noisy). Test: {g.test_episodes} "
+        f"{g.episodes} episodes per genome (70 % clean / 30 % noisy)"
+        + (
+            "; the vision runs use their preset's own (configs/grn_vision.yaml)"
+            if g.vision_budget == "preset"
+            else ""
+        )
+        + f". Test: {g.test_episodes} "
         f"episodes on held-out test objects with fixed seeds; {g.train_episodes} on training objects. "
         "Intervals are Wilson 95 %. The trivial policies (all-zero, uniform-random, constant turn) "
         "run on the same seeds.",
