@@ -129,7 +129,11 @@ def second_preset() -> None:
         ("vision2_noes_s*", "no early stop"),  # the same preset, evolution.early_stop false
         ("vision3_grasp_s*", "reach at the grasp"),  # + evaluation.distance_at grasp, weight 2
         ("vision2_blind_s*", "blind GRN (no-early-stop preset)"),  # visual features zeroed
+        ("vision2_g30_s*", "preset extended to 30 generations (3,600 episodes)"),
+        ("vision4_pop24_s*", "24 genomes x 4 episodes x 18 generations (1,728 episodes)"),
     )
+    blind_ep = HERE / "vision2_blind_s0" / "eval_test_0_episodes.csv"
+    blind0 = successes(blind_ep, "genome") if blind_ep.is_file() else None
     for pattern, label in variants:
         mine: dict[str, list[int]] = {}
         for d in sorted(HERE.glob(pattern)):
@@ -145,6 +149,8 @@ def second_preset() -> None:
                   f"episodes, {summ['wall_s'] / 60:.1f} min")  # fmt: skip
             others = {**base, **{f"early-stopped seed {k}": v for k, v in got.items()}}
             others.update({f"no early stop, seed {k}": v for k, v in noes.items()})
+            if blind0 is not None and not pattern.startswith("vision2_blind"):
+                others["blind GRN, seed 0"] = blind0
             for name, e in others.items():
                 print(f"  − {name}: {pfmt(paired(clean, e))}")
             mine[s] = clean
