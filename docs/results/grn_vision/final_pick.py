@@ -1,0 +1,77 @@
+"""Was the final pick the problem? Re-select a finished run's last elites on fresh episodes.
+
+Issue 22, third session (docs/results/grn.md, "More genomes, fewer episodes, on the real env").
+A run's ``best_genome.npz`` is the best of its last generation on that generation's few
+training episodes. This script takes the elites that the last generation passed on (the first
+``evolution.elites`` genomes of the checkpoint's bred population, best first), scores each on
+``--episodes`` fresh *training-object* episodes (seed stream 5, never used by evolution; the
+same episodes for every elite), keeps the one with the most successes (the earliest rank on a
+tie) and tests it on the usual 200 held-out-object episodes (test seed 10000). Elite 0 is the run's
+``best_genome.npz``, so picking it reproduces ``evodevo grn evaluate``'s clean test.
+
+Run: ``python docs/results/grn_vision/final_pick.py RUN_DIR [--episodes 30] [--workers 1]``;
+writes ``RUN_DIR/final_pick.json`` and ``RUN_DIR/final_pick_test_episodes.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from evodevo.grn.controller import make_controller
+from evodevo.grn.evaluation import load_run, test_episodes
+from evodevo.grn.evaluator import Evaluator
+from evodevo.grn.evolution import CHECKPOINT_FILE, training_episodes
+from evodevo.grn.genome import load_arrays
+
+PICK_KEY = 5
+"""Seed stream of the re-selection episodes (evolution uses 2-4)."""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--episodes", type=int, default=30)
+    ap.add_argument("--workers", type=int, default=1)
+    args = ap.parse_args()
+    lr = load_run(args.run)
+    cfg = lr.config
+    arrays, meta = load_arrays(args.run / "checkpoints" / CHECKPOINT_FILE, "grn_checkpoint")
+    if not meta.get("bred"):
+        raise SystemExit("the checkpoint predates breeding after the last generation")
+    kind = make_controller(cfg, 3)  # the Kuka port: (dx, dy, d-angle)
+    elites = []
+    for i in range(cfg.evolution.elites):
+        sub = {k.split("__", 1)[1]: v for k, v in arrays.items() if k.startswith(f"pop{i}__")}
+        elites.append(kind.genome_from_arrays(sub))
+    eps = training_episodes(cfg.seed, PICK_KEY, 0, args.episodes, 0.0)
+    with Evaluator(cfg, lr.encoder, workers=args.workers) as ev:
+        res = ev.evaluate(elites, eps)
+        wins = res.success.sum(axis=1)
+        pick = int(np.argmax(wins))
+        test = test_episodes(cfg.evaluation.test_seed, 200, True)
+        tres = ev.evaluate([elites[pick]], test)
+    succ = tres.success[0].astype(int)
+    out = {
+        "elites": len(elites),
+        "pick_episodes": args.episodes,
+        "pick_successes": wins.astype(int).tolist(),
+        "picked": pick,
+        "test_successes": int(succ.sum()),
+        "test_episodes": len(test),
+    }
+    (args.run / "final_pick.json").write_text(json.dumps(out, indent=2) + "\n")
+    with open(args.run / "final_pick_test_episodes.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["policy", "episode", "seed", "success"])
+        for i, (e, s) in enumerate(zip(test, succ, strict=True)):
+            w.writerow(["genome", i, e.seed, int(s)])
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()
