@@ -30,13 +30,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from search_surrogate import TX, TY, _merge, reach
+from search_surrogate import _merge, distance_score, evolve_best, reach
 
-from evodevo.config import load_config
-from evodevo.grn.config import GrnConfig, vision_preset
-from evodevo.grn.controller import PlainGrnController
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
-from evodevo.grn.selection import rank, tournament
 
 P_NEAR, P_FAR, D_SCALE = 0.85, 0.45, 0.03
 
@@ -73,37 +69,21 @@ ROWS: dict[str, dict[str, Any]] = {
 }
 
 
+def noisy_score(
+    cfg: Any, ctrl: Any, pop: list[Any], targets: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """Eq. 4.6 on coin-flip successes p(d) minus the preset's distance shaping (module doc)."""
+    d = reach(ctrl, pop, targets)
+    coin = rng.uniform(size=len(targets))  # common random numbers across genomes
+    succ = (coin[None, :] < p_success(d)).astype(float)
+    weight = cfg.evaluation.distance_weight
+    return np.asarray(fitness_matrix(succ, succ.astype(bool)) - weight * distance_penalty(d))
+
+
 def evolve(over: dict[str, Any], seed: int) -> tuple[float, float]:
     over = copy.deepcopy(over)
     noisy = over.pop("noise", True)
-    cfg = load_config(GrnConfig, None, _merge(vision_preset(), over))
-    ctrl = PlainGrnController(cfg, 3)
-    evo = cfg.evolution
-    weight = cfg.evaluation.distance_weight
-    rng = np.random.default_rng(seed)
-    pop = [ctrl.init_genome(rng) for _ in range(evo.population)]
-    trng = np.random.default_rng(seed + 100)
-    test = np.stack(
-        [np.random.default_rng(7).uniform(*TX, 100), np.random.default_rng(8).uniform(*TY, 100)], 1
-    )
-    n_eps = cfg.evaluation.episodes
-    best = pop[0]
-    for _ in range(evo.generations):
-        targets = np.stack([trng.uniform(*TX, n_eps), trng.uniform(*TY, n_eps)], 1)
-        d = reach(ctrl, pop, targets)
-        if noisy:
-            coin = trng.uniform(size=n_eps)  # common random numbers across genomes
-            succ = (coin[None, :] < p_success(d)).astype(float)
-            fit = fitness_matrix(succ, succ.astype(bool)) - weight * distance_penalty(d)
-        else:
-            fit = -np.minimum(d, 0.2).mean(1) / 0.05
-        order = rank(fit)
-        best = pop[int(order[0])]
-        children = [
-            ctrl.mutate(pop[tournament(fit, evo.tournament, rng)], rng)
-            for _ in range(evo.population - evo.elites)
-        ]
-        pop = [pop[i] for i in order[: evo.elites]] + children
+    ctrl, best, test = evolve_best(over, seed, noisy_score if noisy else distance_score)
     dt = reach(ctrl, [best], test)[0]
     return round(float(np.median(dt)) * 100, 2), round(float(p_success(dt).mean()), 3)
 

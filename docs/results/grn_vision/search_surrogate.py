@@ -109,8 +109,18 @@ def reach(ctrl: Any, genomes: list[Any], targets: np.ndarray) -> np.ndarray:
     return np.asarray(np.hypot(*(ee - t).T)).reshape(len(genomes), len(targets))
 
 
-def evolve(over: dict[str, Any], seed: int) -> tuple[float, float]:
-    """Evolve with preset + ``over``; (median final distance cm, fraction within 2 cm)."""
+def distance_score(
+    cfg: Any, ctrl: Any, pop: list[Any], targets: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """Selection fitness of this surrogate: −mean of min(d, 20 cm) / 5 cm per genome."""
+    return -np.minimum(reach(ctrl, pop, targets), 0.2).mean(1) / 0.05
+
+
+def evolve_best(
+    over: dict[str, Any], seed: int, score: Any = distance_score
+) -> tuple[Any, Any, np.ndarray]:
+    """Evolve with preset + ``over`` scored by ``score(cfg, ctrl, pop, targets, rng)`` (``rng``
+    the generator the targets came from); (controller, last generation's best, 100 test targets)."""
     cfg = load_config(GrnConfig, None, _merge(vision_preset(), copy.deepcopy(over)))
     ctrl = PlainGrnController(cfg, 3)
     evo = cfg.evolution
@@ -124,7 +134,7 @@ def evolve(over: dict[str, Any], seed: int) -> tuple[float, float]:
     best = pop[0]
     for _ in range(evo.generations):
         targets = np.stack([trng.uniform(*TX, n_eps), trng.uniform(*TY, n_eps)], 1)
-        fit = -np.minimum(reach(ctrl, pop, targets), 0.2).mean(1) / 0.05
+        fit = score(cfg, ctrl, pop, targets, trng)
         order = rank(fit)
         best = pop[int(order[0])]
         children = [
@@ -132,6 +142,12 @@ def evolve(over: dict[str, Any], seed: int) -> tuple[float, float]:
             for _ in range(evo.population - evo.elites)
         ]
         pop = [pop[i] for i in order[: evo.elites]] + children
+    return ctrl, best, test
+
+
+def evolve(over: dict[str, Any], seed: int) -> tuple[float, float]:
+    """Evolve with preset + ``over``; (median final distance cm, fraction within 2 cm)."""
+    ctrl, best, test = evolve_best(over, seed)
     d = reach(ctrl, [best], test)[0]
     return round(float(np.median(d)) * 100, 2), round(float((d < 0.02).mean()), 2)
 
