@@ -11,7 +11,7 @@ import torch
 from test_grn_fakeenv import FAKE_ID
 
 from evodevo.config import from_dict
-from evodevo.errors import EvodevoError
+from evodevo.errors import ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import make_controller
 from evodevo.grn.encoder import Encoder
@@ -118,6 +118,57 @@ def test_elites_pass_unchanged_and_every_genome_is_reevaluated():
         # the first two of generation 2 are generation 1's best two, the very same objects
         assert all(any(g is b for b in before) for g in calls[1][0][:2])
         assert calls[1][1] != eps  # fresh seeds each generation, shared by all genomes
+
+
+def test_final_pick_reselects_the_last_elites_on_fresh_clean_episodes(tmp_path):
+    """evolution.final_pick_episodes: the elites bred after the last generation are scored on
+    the same fresh clean episodes; the one with the most successes is returned (SPEC §2.4)."""
+    from evodevo.grn.evolution import EPISODE_KEY, FINAL_PICK_KEY, training_episodes
+
+    cfg = fake_config(
+        seed=3,
+        evolution={
+            "population": 4,
+            "elite_fraction": 0.5,
+            "generations": 2,
+            "early_stop": False,
+            "final_pick_episodes": 8,
+        },
+    )
+    with Evaluator(cfg, Encoder.from_seed(0)) as ev:
+        evo = Evolution(cfg, make_controller(cfg, ev.n_actions), ev)
+        calls = []
+        original = ev.evaluate
+
+        def spy(genomes, episodes, **kw):
+            res = original(genomes, episodes, **kw)
+            calls.append((list(genomes), list(episodes), res))
+            return res
+
+        ev.evaluate = spy  # type: ignore[method-assign]
+        evo.run()
+    assert len(calls) == 3  # two generations, then the pick
+    genomes, eps, res = calls[-1]
+    assert genomes == evo.population[:2]  # the elites, best first
+    assert eps == training_episodes(cfg.seed, FINAL_PICK_KEY, 2, 8, 0.0)
+    assert not any(e.noisy for e in eps)
+    seen = {e.seed for g in range(2) for e in training_episodes(cfg.seed, EPISODE_KEY, g, 3, 0.3)}
+    assert seen.isdisjoint(e.seed for e in eps)
+    wins = res.success.sum(axis=1)
+    assert wins.tolist() == [1, 2]  # this seed's second elite wins more: it is returned
+    assert evo.best_genome is genomes[1] and evo.final_pick["picked_rank"] == 1
+    assert evo.final_pick["successes"] == wins.astype(int).tolist()
+    assert evo.episodes_run == 4 * 3 * 2 + 2 * 8  # the pick is paid from the budget
+    # through a run directory: recorded, and a resumed finished run does not pick again
+    summary = evolve_run(cfg, tmp_path / "r", progress=False)
+    assert summary["final_pick"]["picked_rank"] == evo.final_pick["picked_rank"]
+    again = evolve_run(cfg, tmp_path / "r", resume=True, progress=False)
+    assert again["episodes_run"] == summary["episodes_run"] == 40
+
+
+def test_final_pick_needs_two_elites():
+    with pytest.raises(ConfigError, match="final_pick_episodes=5 needs at least 2 elites"):
+        fake_config(evolution={"population": 4, "elite_fraction": 0.25, "final_pick_episodes": 5})
 
 
 def test_dead_worker_is_retried_through_the_evaluator(tmp_path):

@@ -47,8 +47,11 @@ def _overrides(
     controller: str | None,
     blind: bool,
     open_loop: bool,
+    final_pick: int | None = None,
 ) -> dict[str, Any]:
     out: dict[str, Any] = {}
+    if final_pick is not None:
+        out.setdefault("evolution", {})["final_pick_episodes"] = final_pick
     if population is not None:
         out.setdefault("evolution", {})["population"] = population
     if generations is not None:
@@ -133,6 +136,11 @@ def evolve(
     population: int | None = typer.Option(None, help="Genomes per generation [12]."),
     generations: int | None = typer.Option(None, help="Maximum generations [15]."),
     episodes: int | None = typer.Option(None, help="Episodes per evaluation [10]."),
+    final_pick: int | None = typer.Option(
+        None,
+        help="Re-select the final genome among the last elites on this many fresh episodes "
+        "each (evolution.final_pick_episodes; 0 = off) [the config's].",
+    ),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
     seed: int | None = typer.Option(None, help="Run seed [0]."),
     config: Path | None = typer.Option(
@@ -178,7 +186,9 @@ def evolve(
     set_single_thread()
     check_seed("--seed", seed)
     check_backend(backend, address, workers)
-    ov = _overrides(population, generations, episodes, seed, controller, blind, open_loop)
+    ov = _overrides(
+        population, generations, episodes, seed, controller, blind, open_loop, final_pick
+    )
     if resume and not (out / "config.json").is_file():
         where = "does not exist" if not out.exists() else "holds no run (no config.json)"
         raise EvodevoError(
@@ -233,6 +243,12 @@ def evolve(
         f"{summary['wall_s']:.0f} s; best training success {summary['best_training_success']:.2f}"
         f"{' (early stop)' if summary['stopped_early'] else ''}; run in {out}"
     )
+    pick = summary.get("final_pick")
+    if pick is not None:
+        typer.echo(
+            f"final pick: the {len(pick['successes'])} elites won {pick['successes']} of "
+            f"{pick['episodes']} fresh episodes; kept the one ranked {pick['picked_rank']}"
+        )
 
 
 add_evaluate_command(

@@ -189,6 +189,14 @@ class EvolutionConfig:
     retest_episodes: int = doc(20, "episodes of the early-stop retest (same clean/noisy protocol)")
     retest_success: float = doc(0.5, "retest success at or above which evolution stops")
     early_stop: bool = doc(True, "use the early stop at all")
+    final_pick_episodes: int = doc(
+        0,
+        "re-select the final genome: once the budget is spent, score the last generation's "
+        "elites on this many fresh clean training-object episodes (the same for each; success "
+        "only, like the test) and keep the one with the most successes (the better rank on a "
+        "tie). Paid from the training budget: elites x final_pick_episodes episodes "
+        "(0 = the best of the last generation, the thesis)",
+    )
 
     @property
     def elites(self) -> int:
@@ -203,6 +211,14 @@ class EvolutionConfig:
         _check_range("early_stop_success", self.early_stop_success, 0.0, 1.0)
         _check_range("retest_episodes", self.retest_episodes, 1)
         _check_range("retest_success", self.retest_success, 0.0, 1.0)
+        _check_range("final_pick_episodes", self.final_pick_episodes, 0)
+        if self.final_pick_episodes > 0 and self.elites < 2:
+            raise ConfigError(
+                f"final_pick_episodes={self.final_pick_episodes} needs at least 2 elites to "
+                f"choose between, but elite_fraction={self.elite_fraction} x population="
+                f"{self.population} gives {self.elites}; raise elite_fraction or set "
+                "final_pick_episodes: 0"
+            )
 
 
 @dataclass

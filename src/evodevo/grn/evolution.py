@@ -49,6 +49,7 @@ __all__ = [
     "EVOLUTION_KEY",
     "EPISODE_KEY",
     "RETEST_KEY",
+    "FINAL_PICK_KEY",
 ]
 
 EVOLUTION_KEY = 2
@@ -57,6 +58,8 @@ EPISODE_KEY = 3
 """Seed stream of the training episodes (per generation)."""
 RETEST_KEY = 4
 """Seed stream of the early-stop retest episodes (per generation)."""
+FINAL_PICK_KEY = 5
+"""Seed stream of the final-pick episodes (``evolution.final_pick_episodes``)."""
 CHECKPOINT_FILE = "checkpoint.npz"
 
 
@@ -116,6 +119,16 @@ class ProgressPrinter(Hook):
             flush=True,
         )
 
+    def on_end(self, evo: Evolution) -> None:
+        p = evo.final_pick
+        if p is not None and p["after_generation"] == evo.generation:
+            print(
+                f"final pick: elites won {p['successes']} of {p['episodes']} fresh episodes; "
+                f"kept rank {p['picked_rank']}",
+                file=sys.stderr,
+                flush=True,
+            )
+
 
 class Evolution:
     """Algorithm 3 over any controller kind.
@@ -151,6 +164,8 @@ class Evolution:
         self.reevaluated: list[int] = []
         """Generations that evaluated the previous generation's population again (an
         extension of a run whose checkpoint predates breeding after the last generation)."""
+        self.final_pick: dict[str, Any] | None = None
+        """The final re-selection (``evolution.final_pick_episodes``), once it ran."""
 
     @property
     def done(self) -> bool:
@@ -234,10 +249,49 @@ class Evolution:
             hook.on_generation(self, record)
         return record
 
+    def pick_final(self) -> dict[str, Any]:
+        """Re-select the final genome among the last generation's elites (SPEC §2.4 budget).
+
+        The population bred after the last generation starts with its ``elites`` best genomes,
+        best first; each is scored on the same ``final_pick_episodes`` fresh clean episodes
+        (seed stream :data:`FINAL_PICK_KEY`, disjoint from the generations' and the test's) and
+        the one with the most successes becomes :attr:`best_genome` (the better rank on a tie).
+        A single noisy generation decides less than these episodes do.
+        """
+        evo_cfg = self.config.evolution
+        t0 = time.perf_counter()
+        candidates = self.population[: evo_cfg.elites]
+        episodes = training_episodes(
+            self.config.seed, FINAL_PICK_KEY, self.generation, evo_cfg.final_pick_episodes, 0.0
+        )
+        res = self.evaluator.evaluate(candidates, episodes)
+        wins = res.success.sum(axis=1).astype(int)
+        pick = int(np.argmax(wins))
+        self.best_genome = candidates[pick]
+        eval_s = time.perf_counter() - t0
+        self.elapsed_s += eval_s
+        self.episodes_run += res.reward.size
+        self.env_steps += res.env_steps
+        self.episodes_saved += res.episodes_saved
+        self.final_pick = {
+            "after_generation": self.generation,
+            "episodes": evo_cfg.final_pick_episodes,
+            "successes": wins.tolist(),
+            "picked_rank": pick,
+            "eval_s": eval_s,
+        }
+        return self.final_pick
+
     def run(self) -> Evolution:
-        """Step until the generation budget is spent or the early stop fires."""
+        """Step until the budget is spent or the early stop fires; then the final pick."""
         while not self.done:
             self.step()
+        if (
+            self.config.evolution.final_pick_episodes > 0
+            and not self.stopped_early
+            and (self.final_pick is None or self.final_pick["after_generation"] != self.generation)
+        ):
+            self.pick_final()
         for hook in self.hooks:
             hook.on_end(self)
         return self
@@ -266,6 +320,7 @@ class Evolution:
             "history": [asdict(r) for r in self.history],
             "bred": True,
             "reevaluated": self.reevaluated,
+            "final_pick": self.final_pick,
         }
         save_arrays(path, "grn_checkpoint", arrays, json.loads(json.dumps(meta, default=float)))
 
@@ -296,6 +351,7 @@ class Evolution:
         # extension of such a run first re-evaluates that population, then breeds
         self.bred_at_end = bool(meta.get("bred", False)) or self.generation == 0
         self.reevaluated = [int(g) for g in meta.get("reevaluated", [])]
+        self.final_pick = meta.get("final_pick")
 
 
 class StopOnSignal(Hook):
@@ -323,6 +379,7 @@ class Checkpointer(Hook):
         self.write_outputs(evo)
 
     def on_end(self, evo: Evolution) -> None:
+        evo.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)  # holds the final pick
         self.write_outputs(evo)
 
     def write_outputs(self, evo: Evolution) -> None:
@@ -354,6 +411,7 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
         "env_steps": evo.env_steps,
         "episodes_saved": evo.episodes_saved,
         "reevaluated_generations": evo.reevaluated,
+        "final_pick": evo.final_pick,
         "best_fitness": h[-1].best_fitness if h else None,
         "best_training_success": h[-1].best_success if h else None,
         "budget": {
