@@ -131,6 +131,8 @@ def second_preset() -> None:
         ("vision2_blind_s*", "blind GRN (no-early-stop preset)"),  # visual features zeroed
         ("vision2_g30_s*", "preset extended to 30 generations (3,600 episodes)"),
         ("vision4_pop24_s*", "24 genomes x 4 episodes x 18 generations (1,728 episodes)"),
+        ("vision5_pick_s*", "24 x 4 x 17 + final pick 6 elites x 28 episodes (1,800 episodes)"),
+        ("vision5_pick_blind_s*", "blind GRN of 24 x 4 x 17 + final pick"),
     )
     blind_ep = HERE / "vision2_blind_s0" / "eval_test_0_episodes.csv"
     blind0 = successes(blind_ep, "genome") if blind_ep.is_file() else None
@@ -149,8 +151,16 @@ def second_preset() -> None:
                   f"episodes, {summ['wall_s'] / 60:.1f} min")  # fmt: skip
             others = {**base, **{f"early-stopped seed {k}": v for k, v in got.items()}}
             others.update({f"no early stop, seed {k}": v for k, v in noes.items()})
-            if blind0 is not None and not pattern.startswith("vision2_blind"):
+            if blind0 is not None and "blind" not in pattern:
                 others["blind GRN, seed 0"] = blind0
+            if pattern.startswith("vision5_pick_s"):
+                for b in sorted(HERE.glob("vision5_pick_blind_s*")):
+                    ep = b / "eval_test_0_episodes.csv"
+                    if ep.is_file():
+                        others[f"blind GRN of this config, {b.name[-2:]}"] = successes(ep, "genome")
+                same = HERE / f"vision4_pop24_s{s}" / "eval_test_0_episodes.csv"
+                if same.is_file():
+                    others["24 x 4 x 18 without the pick, same seed"] = successes(same, "genome")
             for name, e in others.items():
                 print(f"  − {name}: {pfmt(paired(clean, e))}")
             mine[s] = clean
