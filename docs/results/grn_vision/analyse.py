@@ -171,6 +171,32 @@ def second_preset() -> None:
             noes = mine
 
 
+def preset_vs_own_blind() -> None:
+    """The default preset (``vision2_noes_s*``) against the blind GRN of the same seed."""
+    rows = []
+    for d in sorted(HERE.glob("vision2_noes_s*")):
+        s = d.name.rsplit("_s", 1)[1]
+        b = HERE / f"vision2_blind_s{s}" / "eval_test_0_episodes.csv"
+        mine = successes(next(d.glob("eval_test_*_episodes.csv")), "genome")
+        if not b.is_file() or mine is None:
+            continue
+        blind = successes(b, "genome")
+        rows.append((s, mine, blind))
+    if not rows:
+        return
+    print("\n| seed | preset | blind GRN, same seed | preset − blind (exact McNemar p) |")
+    print("|---|---|---|---|")
+    for s, mine, blind in rows:
+        print(
+            f"| {s} | {fmt(sum(mine), len(mine))} | {fmt(sum(blind), len(blind))} | "
+            f"{pfmt(paired(mine, blind))} |"
+        )
+    k = sum(sum(b) for _, _, b in rows)
+    n = sum(len(b) for _, _, b in rows)
+    print(f"| pooled blind | | {fmt(k, n)} | |")
+
+
 if __name__ == "__main__":
     main()
     second_preset()
+    preset_vs_own_blind()

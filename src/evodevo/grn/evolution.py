@@ -256,7 +256,8 @@ class Evolution:
         best first; each is scored on the same ``final_pick_episodes`` fresh clean episodes
         (seed stream :data:`FINAL_PICK_KEY`, disjoint from the generations' and the test's) and
         the one with the most successes becomes :attr:`best_genome` (the better rank on a tie).
-        A single noisy generation decides less than these episodes do.
+        Measured on the Kuka vision preset's budget it gained nothing: the elites were too alike
+        for a few dozen binary outcomes to tell apart (docs/results/grn.md, "The final pick").
         """
         evo_cfg = self.config.evolution
         t0 = time.perf_counter()
