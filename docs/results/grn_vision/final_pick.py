@@ -19,17 +19,25 @@ import argparse
 import csv
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from evodevo.grn.controller import make_controller
 from evodevo.grn.evaluation import load_run, test_episodes
 from evodevo.grn.evaluator import Evaluator
-from evodevo.grn.evolution import CHECKPOINT_FILE, training_episodes
-from evodevo.grn.genome import load_arrays
+from evodevo.grn.evolution import CHECKPOINT_FILE, Evolution, training_episodes
 
 PICK_KEY = 5
 """Seed stream of the re-selection episodes (evolution uses 2-4)."""
+
+
+def checkpoint_evolution(cfg: Any, run: Path) -> Evolution:
+    """The optimiser state of ``run``'s checkpoint (population best first, final pick), read by
+    :meth:`Evolution.load_checkpoint`; no evaluator (nothing is evaluated through it)."""
+    evo = Evolution(cfg, make_controller(cfg, 3), evaluator=None)  # type: ignore[arg-type]
+    evo.load_checkpoint(run / "checkpoints" / CHECKPOINT_FILE)
+    return evo
 
 
 def main() -> None:
@@ -40,14 +48,10 @@ def main() -> None:
     args = ap.parse_args()
     lr = load_run(args.run)
     cfg = lr.config
-    arrays, meta = load_arrays(args.run / "checkpoints" / CHECKPOINT_FILE, "grn_checkpoint")
-    if not meta.get("bred"):
+    evo = checkpoint_evolution(cfg, args.run)
+    if not evo.bred_at_end:
         raise SystemExit("the checkpoint predates breeding after the last generation")
-    kind = make_controller(cfg, 3)  # the Kuka port: (dx, dy, d-angle)
-    elites = []
-    for i in range(cfg.evolution.elites):
-        sub = {k.split("__", 1)[1]: v for k, v in arrays.items() if k.startswith(f"pop{i}__")}
-        elites.append(kind.genome_from_arrays(sub))
+    elites = evo.population[: cfg.evolution.elites]
     eps = training_episodes(cfg.seed, PICK_KEY, 0, args.episodes, 0.0)
     with Evaluator(cfg, lr.encoder, workers=args.workers) as ev:
         res = ev.evaluate(elites, eps)

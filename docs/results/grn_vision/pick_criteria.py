@@ -21,13 +21,12 @@ import json
 from pathlib import Path
 
 import numpy as np
+from final_pick import checkpoint_evolution  # this folder's script
 
 from evodevo.config import replace
-from evodevo.grn.controller import make_controller
 from evodevo.grn.evaluation import load_run, test_episodes
 from evodevo.grn.evaluator import Evaluator
-from evodevo.grn.evolution import CHECKPOINT_FILE, FINAL_PICK_KEY, training_episodes
-from evodevo.grn.genome import load_arrays
+from evodevo.grn.evolution import FINAL_PICK_KEY, training_episodes
 
 
 def main() -> None:
@@ -37,15 +36,11 @@ def main() -> None:
     args = ap.parse_args()
     lr = load_run(args.run)
     cfg = lr.config
-    arrays, meta = load_arrays(args.run / "checkpoints" / CHECKPOINT_FILE, "grn_checkpoint")
-    pick = meta.get("final_pick")
+    evo = checkpoint_evolution(cfg, args.run)
+    pick = evo.final_pick
     if not pick:
         raise SystemExit(f"{args.run} made no final pick (evolution.final_pick_episodes 0)")
-    kind = make_controller(cfg, 3)  # the Kuka port: (dx, dy, d-angle)
-    elites = []
-    for i in range(cfg.evolution.elites):
-        sub = {k.split("__", 1)[1]: v for k, v in arrays.items() if k.startswith(f"pop{i}__")}
-        elites.append(kind.genome_from_arrays(sub))
+    elites = evo.population[: cfg.evolution.elites]
     eps = training_episodes(
         cfg.seed, FINAL_PICK_KEY, pick["after_generation"], pick["episodes"], 0.0
     )
