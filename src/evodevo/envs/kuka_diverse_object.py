@@ -299,6 +299,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.distance_at_grasp = float("nan")
         """Horizontal gripper-to-nearest-object distance (m) when the automatic grasp started
         (NaN before it): for a shaped *training* fitness only (``evaluation.distance_at``)."""
+        self.gripper_xy_at_grasp = np.full(2, np.nan)
+        """The end effector's table (x, y) (m) when the automatic grasp started (NaN before it):
+        the robot's own pose, for the shaped training fitness' reach to a seen target."""
         self._view_matrix: Any = None
         self._proj_matrix: Any = None
 
@@ -399,6 +402,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._attempted_grasp = False
         self._env_step = 0
         self.distance_at_grasp = float("nan")
+        self.gripper_xy_at_grasp = np.full(2, np.nan)
 
         # Newest first: PyBullet reuses freed body ids last-in first-out, so the next objects get
         # the same ids (and the same solver order) as in a freshly built world.
@@ -569,6 +573,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
     def _grasp(self) -> None:
         """Close the fingers for 500 steps, then lift for 500 (:func:`kuka_grasp.grasp`)."""
         self.distance_at_grasp = self.nearest_object_distance()
+        self.gripper_xy_at_grasp = self.end_effector_xy()
         res = grasp(
             self._cid,
             self._arm,
@@ -581,6 +586,10 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.lifts_skipped += int(res.skipped > 0)
         self.lift_steps_skipped += res.skipped
         self._attempted_grasp = True
+
+    def end_effector_xy(self) -> np.ndarray:
+        """The end effector's table (x, y) (m): the robot's own pose (forward kinematics)."""
+        return np.asarray(self._arm.end_effector_position()[:2], dtype=np.float64)
 
     def nearest_object_distance(self) -> float:
         """Horizontal distance (m) from the end effector to the nearest object's base, read from

@@ -21,6 +21,9 @@ from evodevo.errors import ConfigError
 
 DISTANCE_AT = ("end", "grasp")
 """Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
+DISTANCE_TO = ("nearest", "target")
+"""Values of ``evaluation.distance_to``: what the shaped training fitness measures the gripper's
+distance to (the nearest object, read from the simulator; or the target the front-end saw)."""
 
 __all__ = [
     "DynamicsConfig",
@@ -34,6 +37,7 @@ __all__ = [
     "NeuromodConfig",
     "GrnConfig",
     "DISTANCE_AT",
+    "DISTANCE_TO",
 ]
 
 
@@ -250,6 +254,12 @@ class EvaluationConfig:
         "when the shaped fitness reads that distance: end (after the episode, the automatic "
         "grasp's lift included) or grasp (when the automatic grasp starts: the reach alone)",
     )
+    distance_to: str = doc(
+        "nearest",
+        "what that distance is measured to: nearest (the nearest object's base, read from the "
+        "simulator) or target (the table point the blob front-end localised on the first frame: "
+        "the robot's own estimate, no simulator pose; an episode without a target counts 20 cm)",
+    )
 
     def validate(self) -> None:
         _check_range("episodes", self.episodes, 1)
@@ -262,6 +272,11 @@ class EvaluationConfig:
             raise ConfigError(
                 f"evaluation.distance_at must be one of {list(DISTANCE_AT)}, got "
                 f"{self.distance_at!r}"
+            )
+        if self.distance_to not in DISTANCE_TO:
+            raise ConfigError(
+                f"evaluation.distance_to must be one of {list(DISTANCE_TO)}, got "
+                f"{self.distance_to!r}"
             )
 
 
@@ -397,6 +412,12 @@ class GrnConfig:
             raise ConfigError(
                 f"genome.p_init=identity needs sensors.feature_dim ({self.sensors.feature_dim}) "
                 f"== sensors.n_visual ({self.sensors.n_visual})"
+            )
+        if self.evaluation.distance_to == "target" and self.sensors.encoder != "blob":
+            raise ConfigError(
+                "evaluation.distance_to=target measures the reach to the target the blob "
+                f"front-end localised; sensors.encoder is {self.sensors.encoder!r}. Use "
+                "sensors.encoder: blob or evaluation.distance_to: nearest"
             )
 
 

@@ -135,16 +135,28 @@ def evaluator_env_kwargs(config: Any) -> dict[str, Any]:
     return kwargs
 
 
-def grasp_distance(env: gym.Env[Any, Any], at: str = "end") -> float:
-    """Horizontal distance (m) from the gripper to the nearest object, read from the simulator.
+def grasp_distance(
+    env: gym.Env[Any, Any], at: str = "end", target: np.ndarray | None = None
+) -> float:
+    """Horizontal distance (m) from the gripper to the nearest object, or to ``target``.
 
     For the shaped *training* fitness only (SPEC §2.4, ``evaluation.distance_weight``). ``at``
     (``evaluation.distance_at``): ``"end"``, after the episode (the automatic grasp's lift
     included); ``"grasp"``, when the automatic grasp started (the reach itself, before the
     fingers and the lift move anything; an episode that ended without a grasp counts its end).
-    NaN when the env is not the Kuka port.
+    Without ``target`` the distance is to the nearest object's base, read from the simulator
+    (``evaluation.distance_to: nearest``); with it, to that table point (x, y) — the target the
+    front-end saw (``distance_to: target``): only the robot's own pose is read. NaN when the env
+    is not the Kuka port or the target has a NaN.
     """
     u: Any = env.unwrapped
+    if target is not None:
+        t = np.asarray(target, dtype=np.float64)
+        xy = np.asarray(getattr(u, "gripper_xy_at_grasp", np.full(2, np.nan)), dtype=np.float64)
+        if at != "grasp" or not np.all(np.isfinite(xy)):
+            ee = getattr(u, "end_effector_xy", None)
+            xy = np.full(2, np.nan) if ee is None else np.asarray(ee(), dtype=np.float64)
+        return float(np.hypot(*(xy - t)))
     if at == "grasp":
         d = getattr(u, "distance_at_grasp", float("nan"))
         if np.isfinite(d):

@@ -123,6 +123,7 @@ def run_episodes(
     vector_range: tuple[float, float] | None = None,
     measure_distance: bool = False,
     distance_at: str = "end",
+    distance_to: str = "nearest",
 ) -> dict[str, Any]:
     """Run ``len(episodes)`` episodes in lockstep, slot b driving ``envs[b]`` with ``genomes[b]``.
 
@@ -132,6 +133,9 @@ def run_episodes(
         measure_distance: also return ``distance``, the gripper-to-nearest-object distance at
             each episode's end (:func:`grasp_distance`; training shaping only).
         distance_at: when that distance is read (:func:`grasp_distance`'s ``at``).
+        distance_to: ``"nearest"`` object, or the ``"target"`` the front-end localised (its
+            ``seen_target``; the front-end then runs even for a policy that does not read it,
+            e.g. the blind control, so both are trained on the same signal).
 
     Returns:
         ``{"reward", "success", "steps"}`` arrays of length B, and with ``record`` the per-step
@@ -167,7 +171,14 @@ def run_episodes(
     noisy = np.array([ep.noisy for ep in episodes])
     state = policy.reset_state(list(genomes))
     use_encoder = policy.uses_encoder and encoder is not None and not vector
-    fstate = encoder.reset(n_b) if use_encoder and hasattr(encoder, "reset") else None
+    to_target = measure_distance and distance_to == "target"
+    if to_target and not hasattr(encoder, "seen_target"):
+        raise EvodevoError(
+            "evaluation.distance_to=target needs a front-end that localises a target "
+            f"(sensors.encoder: blob); this run's front-end is {type(encoder).__name__}"
+        )
+    run_frontend = (use_encoder or to_target) and encoder is not None and not vector
+    fstate = encoder.reset(n_b) if run_frontend and hasattr(encoder, "reset") else None
     distance = np.full(n_b, np.nan)
     reward = np.zeros(n_b)
     success = np.zeros(n_b, dtype=bool)
@@ -178,7 +189,9 @@ def run_episodes(
         trace["frames"].append(obs_arr.copy())
     while active.any():
         idx = np.flatnonzero(active)
-        feats = encode(encoder, obs_arr[idx], prop_arr[idx], fstate, idx) if use_encoder else None
+        feats = encode(encoder, obs_arr[idx], prop_arr[idx], fstate, idx) if run_frontend else None
+        if not use_encoder:
+            feats = None
         if getattr(policy, "uses_image", False):  # e.g. an SB3 CNN policy: the raw observations
             feats = obs_arr[idx]
         actions = policy.step(state, idx, feats, prop_arr[idx], [rngs[i] for i in idx], noisy[idx])
@@ -198,7 +211,8 @@ def run_episodes(
                 active[slot] = False
                 success[slot] = bool(info.get("is_success", float(r) > 0))
                 if measure_distance:
-                    distance[slot] = grasp_distance(env, distance_at)
+                    target = encoder.seen_target(fstate, slot) if to_target else None
+                    distance[slot] = grasp_distance(env, distance_at, target)
         if observe is not None:
             observe(state, idx, step_r)
         if record:
@@ -291,6 +305,7 @@ def _run_task(task: _Task) -> dict[str, np.ndarray]:
             n_proprio=task.config.sensors.n_proprio,
             measure_distance=task.measure_distance,
             distance_at=getattr(task.config.evaluation, "distance_at", "end"),
+            distance_to=getattr(task.config.evaluation, "distance_to", "nearest"),
         )
         for k in out:
             out[k][ids] = res[k]

@@ -226,6 +226,13 @@ class BlobLocaliser:
                 best = (d, pt, area)
         return None if best is None else (best[1], best[2])
 
+    def seen_target(self, state: BlobState, slot: int) -> np.ndarray:
+        """The table (x, y) (m) localised on slot ``slot``'s first frame; NaN if none was found
+        (the shaped training fitness' ``evaluation.distance_to: target``)."""
+        if not state.found[slot]:
+            return np.full(2, np.nan)
+        return np.array(state.target[slot], dtype=np.float64)
+
     def reset(self, n: int) -> BlobState:
         """State for ``n`` episode slots (nothing seen yet)."""
         return BlobState(np.zeros((n, 2)), np.zeros(n), np.zeros(n, bool), np.zeros(n, bool))
