@@ -133,6 +133,8 @@ def second_preset() -> None:
         ("vision4_pop24_s*", "24 genomes x 4 episodes x 18 generations (1,728 episodes)"),
         ("vision5_pick_s*", "24 x 4 x 17 + final pick 6 elites x 28 episodes (1,800 episodes)"),
         ("vision5_pick_blind_s*", "blind GRN of 24 x 4 x 17 + final pick"),
+        ("vision6_target_s*", "reach to the seen target at the grasp, weight 3"),
+        ("vision6_blind_s*", "blind GRN of the reach-to-target config"),
     )
     blind_ep = HERE / "vision2_blind_s0" / "eval_test_0_episodes.csv"
     blind0 = successes(blind_ep, "genome") if blind_ep.is_file() else None
@@ -161,6 +163,15 @@ def second_preset() -> None:
                 same = HERE / f"vision4_pop24_s{s}" / "eval_test_0_episodes.csv"
                 if same.is_file():
                     others["24 x 4 x 18 without the pick, same seed"] = successes(same, "genome")
+            if pattern.startswith("vision6_target_s"):
+                for name, sub in (
+                    ("the preset (reach to the nearest object), same seed", "vision2_noes"),
+                    ("blind GRN of the preset, same seed", "vision2_blind"),
+                    ("blind GRN of this config, same seed", "vision6_blind"),
+                ):
+                    ep = next((HERE / f"{sub}_s{s}").glob("eval_test_*_episodes.csv"), None)
+                    if ep is not None:
+                        others[name] = successes(ep, "genome")
             for name, e in others.items():
                 print(f"  − {name}: {pfmt(paired(clean, e))}")
             mine[s] = clean
