@@ -48,8 +48,11 @@ def _overrides(
     blind: bool,
     open_loop: bool,
     final_pick: int | None = None,
+    keep: str | None = None,
 ) -> dict[str, Any]:
     out: dict[str, Any] = {}
+    if keep is not None:
+        out.setdefault("evolution", {})["keep"] = keep
     if final_pick is not None:
         out.setdefault("evolution", {})["final_pick_episodes"] = final_pick
     if population is not None:
@@ -141,6 +144,11 @@ def evolve(
         help="Re-select the final genome among the last elites on this many fresh episodes "
         "each (evolution.final_pick_episodes; 0 = off) [the config's].",
     ),
+    keep: str | None = typer.Option(
+        None,
+        help="Which genome the run returns: last (the last generation's best) or record (the "
+        "champion by lifetime success record; evolution.keep) [the config's].",
+    ),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
     seed: int | None = typer.Option(None, help="Run seed [0]."),
     config: Path | None = typer.Option(
@@ -187,7 +195,7 @@ def evolve(
     check_seed("--seed", seed)
     check_backend(backend, address, workers)
     ov = _overrides(
-        population, generations, episodes, seed, controller, blind, open_loop, final_pick
+        population, generations, episodes, seed, controller, blind, open_loop, final_pick, keep
     )
     if resume and not (out / "config.json").is_file():
         where = "does not exist" if not out.exists() else "holds no run (no config.json)"
@@ -248,6 +256,12 @@ def evolve(
         typer.echo(
             f"final pick: the {len(pick['successes'])} elites won {pick['successes']} of "
             f"{pick['episodes']} fresh episodes; kept the one ranked {pick['picked_rank']}"
+        )
+    champ = summary.get("champion")
+    if summary.get("kept") == "record" and champ is not None:
+        typer.echo(
+            f"kept the champion by record: {champ['successes']} of {champ['episodes']} training "
+            f"episodes (95 % lower bound {champ['lower_bound']:.2f})"
         )
 
 

@@ -21,6 +21,8 @@ from evodevo.errors import ConfigError
 
 DISTANCE_AT = ("end", "grasp")
 """Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
+KEEP = ("last", "record")
+"""Values of ``evolution.keep``: which genome an evolution returns."""
 DISTANCE_TO = ("nearest", "target")
 """Values of ``evaluation.distance_to``: what the shaped training fitness measures the gripper's
 distance to (the nearest object, read from the simulator; or the target the front-end saw)."""
@@ -38,6 +40,7 @@ __all__ = [
     "GrnConfig",
     "DISTANCE_AT",
     "DISTANCE_TO",
+    "KEEP",
 ]
 
 
@@ -201,6 +204,15 @@ class EvolutionConfig:
         "tie). Paid from the training budget: elites x final_pick_episodes episodes "
         "(0 = the best of the last generation, the thesis)",
     )
+    keep: str = doc(
+        "last",
+        "which genome the run returns: last (the best of the last generation, the thesis) or "
+        "record (the champion by lifetime record: every genome's successes accumulate over all "
+        "the generations it is evaluated in — elites are re-evaluated on fresh episodes each "
+        "generation, identical genomes share one record — and after each generation the "
+        "champion is replaced by any evaluated genome whose record has a higher 95 % Wilson "
+        "lower bound than the champion's; no extra episodes, selection unchanged)",
+    )
 
     @property
     def elites(self) -> int:
@@ -216,6 +228,13 @@ class EvolutionConfig:
         _check_range("retest_episodes", self.retest_episodes, 1)
         _check_range("retest_success", self.retest_success, 0.0, 1.0)
         _check_range("final_pick_episodes", self.final_pick_episodes, 0)
+        if self.keep not in KEEP:
+            raise ConfigError(f"evolution.keep must be one of {list(KEEP)}, got {self.keep!r}")
+        if self.keep == "record" and self.final_pick_episodes > 0:
+            raise ConfigError(
+                "evolution.keep=record and final_pick_episodes > 0 both choose the returned "
+                "genome; set final_pick_episodes: 0 or keep: last"
+            )
         if self.final_pick_episodes > 0 and self.elites < 2:
             raise ConfigError(
                 f"final_pick_episodes={self.final_pick_episodes} needs at least 2 elites to "

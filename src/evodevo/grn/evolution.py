@@ -29,7 +29,7 @@ import numpy as np
 
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
-from evodevo.grn.evaluator import Episode, Evaluator
+from evodevo.grn.evaluator import Episode, Evaluator, genome_key
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
@@ -37,6 +37,7 @@ from evodevo.grn.selection import rank, tournament
 from evodevo.runs import RunDir, machine_info, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
+from evodevo.stats import wilson_interval
 
 __all__ = [
     "GenerationRecord",
@@ -166,6 +167,13 @@ class Evolution:
         extension of a run whose checkpoint predates breeding after the last generation)."""
         self.final_pick: dict[str, Any] | None = None
         """The final re-selection (``evolution.final_pick_episodes``), once it ran."""
+        self.records: dict[str, list[int]] = {}
+        """``evolution.keep: record``: [successes, episodes] of every genome evaluated so far,
+        keyed by its content (identical genomes share one record)."""
+        self.champion: Any = None
+        """``evolution.keep: record``: the genome whose record has the highest Wilson lower
+        bound so far (see :meth:`update_records`)."""
+        self.champion_key: str | None = None
 
     @property
     def done(self) -> bool:
@@ -192,6 +200,8 @@ class Evolution:
             fit = fit - weight * distance_penalty(res.distance)
         succ = res.success_rate
         order = rank(fit)
+        if evo_cfg.keep == "record":
+            self.update_records(res.success, order)
         best = int(order[0])
         n_eps, steps, saved = res.reward.size, res.env_steps, res.episodes_saved
         retest = float("nan")
@@ -249,6 +259,48 @@ class Evolution:
             hook.on_generation(self, record)
         return record
 
+    def update_records(self, success: np.ndarray, order: np.ndarray) -> None:
+        """Add this generation's outcomes to the records; replace the champion if beaten.
+
+        ``evolution.keep: record`` (SPEC §2.4 leaves the returned genome to us; the thesis keeps
+        the last generation's best). Each distinct genome of the population (by content, so a
+        clone's copied outcomes count once) adds its successes and episodes to its record;
+        elites, which pass unchanged, build records over many generations' fresh episodes.
+        Then, in rank order, any genome whose record's 95 % Wilson lower bound is strictly above
+        the champion's (re-read, the champion may have been evaluated again) becomes the
+        champion. Selection is untouched: the run's trajectory is the same as with ``last``.
+
+        Args:
+            success: (population, episodes) outcomes of this generation.
+            order: genome indices, best first.
+        """
+        seen: dict[str, int] = {}
+        for i in (int(j) for j in order):
+            key = _record_key(self.population[i])
+            if key in seen:
+                continue
+            seen[key] = i
+            rec = self.records.setdefault(key, [0, 0])
+            rec[0] += int(np.sum(success[i]))
+            rec[1] += int(np.size(success[i]))
+        best = self.record_bound(self.champion_key) if self.champion_key is not None else -1.0
+        for key, i in seen.items():
+            bound = self.record_bound(key)
+            if bound > best:
+                best, self.champion_key, self.champion = bound, key, self.population[i]
+
+    def record_bound(self, key: str) -> float:
+        """The 95 % Wilson lower bound of the success rate of record ``key``."""
+        k, n = self.records[key]
+        return wilson_interval(k, n)[0]
+
+    def champion_record(self) -> dict[str, Any] | None:
+        """The champion's record for ``summary.json`` (None before the first generation)."""
+        if self.champion_key is None:
+            return None
+        k, n = self.records[self.champion_key]
+        return {"successes": k, "episodes": n, "lower_bound": self.record_bound(self.champion_key)}
+
     def pick_final(self) -> dict[str, Any]:
         """Re-select the final genome among the last generation's elites (SPEC §2.4 budget).
 
@@ -287,6 +339,8 @@ class Evolution:
         """Step until the budget is spent or the early stop fires; then the final pick."""
         while not self.done:
             self.step()
+        if self.config.evolution.keep == "record" and self.champion is not None:
+            self.best_genome = self.champion
         if (
             self.config.evolution.final_pick_episodes > 0
             and not self.stopped_early
@@ -307,6 +361,9 @@ class Evolution:
         if self.best_genome is not None:
             for name, a in self.best_genome.arrays().items():
                 arrays[f"best__{name}"] = a
+        if self.champion is not None:
+            for name, a in self.champion.arrays().items():
+                arrays[f"champion__{name}"] = a
         meta = {
             "controller": self.config.controller,
             "seed": self.config.seed,
@@ -322,6 +379,8 @@ class Evolution:
             "bred": True,
             "reevaluated": self.reevaluated,
             "final_pick": self.final_pick,
+            "records": self.records,
+            "champion_key": self.champion_key,
         }
         save_arrays(path, "grn_checkpoint", arrays, json.loads(json.dumps(meta, default=float)))
 
@@ -353,6 +412,20 @@ class Evolution:
         self.bred_at_end = bool(meta.get("bred", False)) or self.generation == 0
         self.reevaluated = [int(g) for g in meta.get("reevaluated", [])]
         self.final_pick = meta.get("final_pick")
+        self.records = {str(k): [int(v[0]), int(v[1])] for k, v in meta.get("records", {}).items()}
+        self.champion_key = meta.get("champion_key")
+        self.champion = genome("champion")
+
+
+def _record_key(genome: Any) -> str:
+    """The content key of a genome's record (``evolution.keep: record``)."""
+    key = genome_key(genome)
+    if isinstance(key, tuple) and len(key) == 2 and isinstance(key[1], str):
+        return key[1]
+    raise ConfigError(
+        f"evolution.keep=record needs genomes with arrays to key their records; "
+        f"{type(genome).__name__} has none. Use evolution.keep: last"
+    )
 
 
 class StopOnSignal(Hook):
@@ -413,6 +486,8 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
         "episodes_saved": evo.episodes_saved,
         "reevaluated_generations": evo.reevaluated,
         "final_pick": evo.final_pick,
+        "kept": evo.config.evolution.keep,
+        "champion": evo.champion_record(),
         "best_fitness": h[-1].best_fitness if h else None,
         "best_training_success": h[-1].best_success if h else None,
         "budget": {
