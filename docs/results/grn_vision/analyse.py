@@ -135,6 +135,7 @@ def second_preset() -> None:
         ("vision5_pick_blind_s*", "blind GRN of 24 x 4 x 17 + final pick"),
         ("vision6_target_s*", "reach to the seen target at the grasp, weight 3"),
         ("vision6_blind_s*", "blind GRN of the reach-to-target config"),
+        ("vision7_record_s*", "the preset, keeping the champion by record (evolution.keep)"),
     )
     blind_ep = HERE / "vision2_blind_s0" / "eval_test_0_episodes.csv"
     blind0 = successes(blind_ep, "genome") if blind_ep.is_file() else None
@@ -163,7 +164,7 @@ def second_preset() -> None:
                 same = HERE / f"vision4_pop24_s{s}" / "eval_test_0_episodes.csv"
                 if same.is_file():
                     others["24 x 4 x 18 without the pick, same seed"] = successes(same, "genome")
-            if pattern.startswith("vision6_target_s"):
+            if pattern.startswith(("vision6_target_s", "vision7_record_s")):
                 for name, sub in (
                     ("the preset (reach to the nearest object), same seed", "vision2_noes"),
                     ("blind GRN of the preset, same seed", "vision2_blind"),
