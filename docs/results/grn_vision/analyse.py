@@ -136,6 +136,7 @@ def second_preset() -> None:
         ("vision6_target_s*", "reach to the seen target at the grasp, weight 3"),
         ("vision6_blind_s*", "blind GRN of the reach-to-target config"),
         ("vision7_record_s*", "the preset, keeping the champion by record (evolution.keep)"),
+        ("vision7_blind_s*", "blind GRN of the preset, keeping the champion by record"),
     )
     blind_ep = HERE / "vision2_blind_s0" / "eval_test_0_episodes.csv"
     blind0 = successes(blind_ep, "genome") if blind_ep.is_file() else None
@@ -169,6 +170,7 @@ def second_preset() -> None:
                     ("the preset (reach to the nearest object), same seed", "vision2_noes"),
                     ("blind GRN of the preset, same seed", "vision2_blind"),
                     ("blind GRN of this config, same seed", "vision6_blind"),
+                    ("blind GRN keeping the champion by record, same seed", "vision7_blind"),
                 ):
                     ep = next((HERE / f"{sub}_s{s}").glob("eval_test_*_episodes.csv"), None)
                     if ep is not None:
