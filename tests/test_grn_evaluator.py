@@ -30,6 +30,20 @@ def fake_config(**sections) -> GrnConfig:
     return from_dict(GrnConfig, data)
 
 
+def record_evaluations(ev: Evaluator) -> list:
+    """Wrap ``ev.evaluate``; the returned list gets (genomes, episodes, results) of each call."""
+    calls: list = []
+    original = ev.evaluate
+
+    def spy(genomes, episodes, **kw):
+        res = original(genomes, episodes, **kw)
+        calls.append((list(genomes), list(episodes), res))
+        return res
+
+    ev.evaluate = spy  # type: ignore[method-assign]
+    return calls
+
+
 def history(path) -> list[dict[str, str]]:
     with open(path / "history.csv") as fh:
         rows = list(csv.DictReader(fh))
@@ -137,15 +151,7 @@ def test_final_pick_reselects_the_last_elites_on_fresh_clean_episodes(tmp_path):
     )
     with Evaluator(cfg, Encoder.from_seed(0)) as ev:
         evo = Evolution(cfg, make_controller(cfg, ev.n_actions), ev)
-        calls = []
-        original = ev.evaluate
-
-        def spy(genomes, episodes, **kw):
-            res = original(genomes, episodes, **kw)
-            calls.append((list(genomes), list(episodes), res))
-            return res
-
-        ev.evaluate = spy  # type: ignore[method-assign]
+        calls = record_evaluations(ev)
         evo.run()
     assert len(calls) == 3  # two generations, then the pick
     genomes, eps, res = calls[-1]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_grn_evaluator import _Stop, _StopAfterFirst, fake_config, history
+from test_grn_evaluator import _Stop, _StopAfterFirst, fake_config, history, record_evaluations
 
 from evodevo.errors import ConfigError
 from evodevo.grn.controller import make_controller
@@ -26,16 +26,9 @@ def test_records_accumulate_every_generation_and_the_champion_is_returned(tmp_pa
     cfg = fake_config(seed=1, evolution={**RECORD, "keep": "record"})
     with Evaluator(cfg, Encoder.from_seed(0)) as ev:
         evo = Evolution(cfg, make_controller(cfg, ev.n_actions), ev)
-        calls = []
-        original = ev.evaluate
-
-        def spy(genomes, episodes, **kw):
-            res = original(genomes, episodes, **kw)
-            calls.append((list(genomes), res.success.copy()))
-            return res
-
-        ev.evaluate = spy  # type: ignore[method-assign]
+        recorded = record_evaluations(ev)
         evo.run()
+    calls = [(genomes, res.success) for genomes, _, res in recorded]
     want: dict[str, list[int]] = {}
     for genomes, success in calls:  # each distinct genome once per generation
         firsts = {}
