@@ -185,12 +185,12 @@ def second_preset() -> None:
             noes = mine
 
 
-def preset_vs_own_blind() -> None:
-    """The default preset (``vision2_noes_s*``) against the blind GRN of the same seed."""
+def preset_vs_own_blind(seeing: str = "vision2_noes", blind_of: str = "vision2_blind") -> None:
+    """A preset's runs (``seeing``_s*) against the blind GRN of the same preset and seed."""
     rows = []
-    for d in sorted(HERE.glob("vision2_noes_s*")):
+    for d in sorted(HERE.glob(f"{seeing}_s*")):
         s = d.name.rsplit("_s", 1)[1]
-        b = HERE / f"vision2_blind_s{s}" / "eval_test_0_episodes.csv"
+        b = HERE / f"{blind_of}_s{s}" / "eval_test_0_episodes.csv"
         mine = successes(next(d.glob("eval_test_*_episodes.csv")), "genome")
         if not b.is_file() or mine is None:
             continue
@@ -198,19 +198,50 @@ def preset_vs_own_blind() -> None:
         rows.append((s, mine, blind))
     if not rows:
         return
-    print("\n| seed | preset | blind GRN, same seed | preset − blind (exact McNemar p) |")
+    print(f"\n| seed | {seeing} | {blind_of}, same seed | seeing − blind (exact McNemar p) |")
     print("|---|---|---|---|")
     for s, mine, blind in rows:
         print(
             f"| {s} | {fmt(sum(mine), len(mine))} | {fmt(sum(blind), len(blind))} | "
             f"{pfmt(paired(mine, blind))} |"
         )
-    k = sum(sum(b) for _, _, b in rows)
-    n = sum(len(b) for _, _, b in rows)
-    print(f"| pooled blind | | {fmt(k, n)} | |")
+    k = sum(sum(m) for _, m, _ in rows)
+    n = sum(len(m) for _, m, _ in rows)
+    kb = sum(sum(b) for _, _, b in rows)
+    print(f"| pooled | {fmt(k, n)} | {fmt(kb, n)} | |")
+
+
+def baselines_on_features() -> None:
+    """PPO and NEAT on the blob features at the preset's budget (``ppo_blob_s*``,
+    ``neat_blob_s*``; ``evodevo baselines kuka --config configs/baselines_kuka_vision.yaml``)
+    against the preset's seeds and the controls, on the same 200 test episodes."""
+    refs = {
+        "constant turn": successes(BASE, "turn"),
+        "scripted image-only pipeline": successes(BASE, "scripted"),
+    }
+    for s in "012":
+        for sub, name in (
+            ("vision7_record", "GRN, keep record"),
+            ("vision2_noes", "GRN, keep last"),
+        ):
+            ep = next((HERE / f"{sub}_s{s}").glob("eval_test_*_episodes.csv"), None)
+            if ep is not None:
+                refs[f"{name}, seed {s}"] = successes(ep, "genome")
+    for d in sorted([*HERE.glob("ppo_blob_s*"), *HERE.glob("neat_blob_s*")]):
+        ev = d / "eval_test_0_episodes.csv"
+        mine = successes(ev, "genome") if ev.is_file() else None
+        if mine is None:
+            continue
+        summ = json.loads((d / "summary.json").read_text())
+        steps = summ.get("env_steps", summ.get("total_timesteps", "?"))
+        print(f"\n{d.name}: {fmt(sum(mine), len(mine))}, training env steps {steps}")
+        for name, e in refs.items():
+            print(f"  − {name}: {pfmt(paired(mine, e))}")
 
 
 if __name__ == "__main__":
     main()
     second_preset()
     preset_vs_own_blind()
+    preset_vs_own_blind("vision7_record", "vision7_blind")
+    baselines_on_features()
