@@ -66,6 +66,11 @@ ROWS: dict[str, dict[str, Any]] = {
     "3 x distance, 2 x budget": _merge(
         {"evaluation": {"distance_weight": 3.0}}, _budget(12, 10, 30)
     ),
+    # sixth session: selection pressure (the real env's vision8_t5 config)
+    "preset, tournament 5": {"evolution": {"tournament": 5}},
+    "preset, tournament 2": {"evolution": {"tournament": 2}},
+    "preset, 1 elite": {"evolution": {"elite_fraction": 0.09}},
+    "preset, tournament 5, 1 elite": {"evolution": {"tournament": 5, "elite_fraction": 0.09}},
 }
 
 

@@ -147,7 +147,8 @@ def evolve(
     keep: str | None = typer.Option(
         None,
         help="Which genome the run returns: last (the last generation's best) or record (the "
-        "champion by lifetime success record; evolution.keep) [the config's].",
+        "champion by lifetime success record; evolution.keep) [the config's: record in the "
+        "vision preset, last in the thesis preset].",
     ),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
     seed: int | None = typer.Option(None, help="Run seed [0]."),

@@ -445,7 +445,12 @@ VISION_PRESET: dict[str, Any] = {
     "sensors": {"encoder": "blob", "feature_dim": 4, "proprio": False},
     "genome": {"ws_std": 1.0, "p_init": "identity"},
     "mutation": {"p_weight": 0.5},
-    "evolution": {"early_stop": False, "early_stop_success": 0.8, "retest_success": 0.7},
+    "evolution": {
+        "early_stop": False,
+        "early_stop_success": 0.8,
+        "retest_success": 0.7,
+        "keep": "record",
+    },
     "evaluation": {"distance_weight": 1.0},
 }
 """The default preset of ``evodevo grn evolve`` (issue 22): what differs from the thesis
