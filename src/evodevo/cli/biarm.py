@@ -117,7 +117,7 @@ def train(
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
     protocol: str | None = typer.Option(
         None,
-        help="DQN protocol preset (SPEC 1.6): default (the measured choice; scaled is its old name), v2 (the previous default: unscaled Xavier laterals, Eq. 3.7 as written) or v1 (the first results' protocol).",
+        help="DQN protocol preset (SPEC 1.6): default (the measured choice), scaled (the default with 10 validation episodes, as its first full runs), v2 (unscaled Xavier laterals, Eq. 3.7 as written, 10 validation episodes) or v1 (the first results' protocol).",
     ),
     resume: bool = typer.Option(
         False,
@@ -253,7 +253,7 @@ def compare(
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
     protocol: str | None = typer.Option(
         None,
-        help="DQN protocol preset (SPEC 1.6): default (the measured choice; scaled is its old name), v2 (the previous default: unscaled Xavier laterals, Eq. 3.7 as written) or v1 (the first results' protocol).",
+        help="DQN protocol preset (SPEC 1.6): default (the measured choice), scaled (the default with 10 validation episodes, as its first full runs), v2 (unscaled Xavier laterals, Eq. 3.7 as written, 10 validation episodes) or v1 (the first results' protocol).",
     ),
     backend: str = typer.Option(
         "local", help="local (process pool) or ray (one Ray task per run)."

@@ -257,7 +257,7 @@ class EvalConfig:
     episodes: int = doc(20, "greedy evaluation episodes per column")
     seed: int = doc(10_000, "first evaluation seed; episode j uses seed + j (same for all runs)")
     validation_episodes: int = doc(
-        10, "greedy validation episodes per check (dqn.keep: best); seeds validation_seed + j"
+        20, "greedy validation episodes per check (dqn.keep: best); seeds validation_seed + j"
     )
     validation_every: int = doc(
         25, "training episodes between validation checks (and one after the last episode)"

@@ -7,10 +7,11 @@ a soft target (τ 0.005), the best validated network kept, the earlier columns' 
 scaled by ``network.lateral_scale`` = 0.0001 where a new column reads them, a new column's
 lateral maps starting at zero (``network.lateral_init``: it starts as an isolated column), and
 BIARM's Eq. 3.7 taken relative to the modules' resting state (``modules.lr_relative``: η_base
-at rest instead of η_base / 2; PNN is unaffected). ``scaled`` is the same protocol under the
-name its first full runs (``docs/results/thesis/biarm_scaled``) were made with.
+at rest instead of η_base / 2; PNN is unaffected), and 20 greedy validation episodes per check
+(``eval.validation_episodes``). ``scaled`` is the same protocol with 10 validation episodes, as
+its first full runs (``docs/results/thesis/biarm_scaled``) were made.
 ``v2`` is the previous default (``docs/results/thesis/biarm_default``): the same DQN details with
-unscaled, Xavier-initialised laterals and Eq. 3.7 as written. ``v1`` is the first protocol,
+unscaled, Xavier-initialised laterals, Eq. 3.7 as written and 10 validation episodes. ``v1`` is the first protocol,
 under which the committed first results (``docs/results/thesis/biarm``) were measured: ε × 0.995
 per *episode*, a hard target copy every 500 gradient steps, no double Q, the last network kept,
 unscaled laterals, and the padding bug (``network.stale_padding``).
@@ -41,10 +42,12 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    "scaled": {},  # the name of the default's first full runs (thesis/biarm_scaled)
+    # the default as its first full runs (thesis/biarm_scaled) ran it: 10 validation episodes
+    "scaled": {"eval": {"validation_episodes": 10}},
     "v2": {
         "network": {"lateral_scale": 1.0, "lateral_init": "xavier"},
         "modules": {"lr_relative": False},
+        "eval": {"validation_episodes": 10},
     },
     "v1": {
         "dqn": {
@@ -56,6 +59,7 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
         },
         "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
         "modules": {"lr_relative": False},
+        "eval": {"validation_episodes": 10},
     },
 }
 

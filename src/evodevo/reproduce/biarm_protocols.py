@@ -89,10 +89,11 @@ def protocol_table(out: Path, cfg: Any) -> list[str]:
         "`v1`: ε × 0.995 per episode, hard target copy every 500 gradient steps, the last "
         "network, unscaled Xavier laterals, and MountainCar's padded inputs left stale (the "
         "padding bug); `v2`: ε × 0.995 per environment step, soft target (τ 0.005), the column "
-        "that scored best on validation seeds (its runs also had the padding bug); `default` "
-        "(`scaled`): v2 with the earlier columns' activations × 0.0001 where a new column's "
+        "that scored best on 10 validation episodes (its runs also had the padding bug); "
+        "`scaled`: v2 with the earlier columns' activations × 0.0001 where a new column's "
         "zero-initialised laterals read them, Eq. 3.7 relative to the modules' resting state, "
-        "and zero padding (docs/results/biarm.md).",
+        "and zero padding; `default`: `scaled` with 20 validation episodes per check instead "
+        "of 10 (docs/results/biarm.md).",
         "",
         *rows,
         "",
