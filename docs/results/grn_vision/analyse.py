@@ -137,6 +137,7 @@ def second_preset() -> None:
         ("vision6_blind_s*", "blind GRN of the reach-to-target config"),
         ("vision7_record_s*", "the preset, keeping the champion by record (evolution.keep)"),
         ("vision7_blind_s*", "blind GRN of the preset, keeping the champion by record"),
+        ("vision8_t5_s*", "the preset (keep record) with tournament 5"),
     )
     blind_ep = HERE / "vision2_blind_s0" / "eval_test_0_episodes.csv"
     blind0 = successes(blind_ep, "genome") if blind_ep.is_file() else None
@@ -165,8 +166,9 @@ def second_preset() -> None:
                 same = HERE / f"vision4_pop24_s{s}" / "eval_test_0_episodes.csv"
                 if same.is_file():
                     others["24 x 4 x 18 without the pick, same seed"] = successes(same, "genome")
-            if pattern.startswith(("vision6_target_s", "vision7_record_s")):
+            if pattern.startswith(("vision6_target_s", "vision7_record_s", "vision8_t5_s")):
                 for name, sub in (
+                    ("the preset keeping the champion by record, same seed", "vision7_record"),
                     ("the preset (reach to the nearest object), same seed", "vision2_noes"),
                     ("blind GRN of the preset, same seed", "vision2_blind"),
                     ("blind GRN of this config, same seed", "vision6_blind"),
