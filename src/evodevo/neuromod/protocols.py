@@ -11,12 +11,12 @@ at rest instead of η_base / 2; PNN is unaffected), and 20 greedy validation epi
 (``eval.validation_episodes``). ``scaled`` is the same protocol with 10 validation episodes, as
 its first full runs (``docs/results/thesis/biarm_scaled``) were made.
 ``v2`` is the previous default (``docs/results/thesis/biarm_default``): the same DQN details with
-unscaled, Xavier-initialised laterals, Eq. 3.7 as written and 10 validation episodes. ``v1`` is the first protocol,
-under which the committed first results (``docs/results/thesis/biarm``) were measured: ε × 0.995
-per *episode*, a hard target copy every 500 gradient steps, no double Q, the last network kept,
-unscaled laterals, and the padding bug (``network.stale_padding``).
+unscaled, Xavier-initialised laterals, Eq. 3.7 as written and 10 validation episodes. ``v1`` is
+the first protocol, under which the committed first results (``docs/results/thesis/biarm``) were
+measured: ε × 0.995 per *episode*, a hard target copy every 500 gradient steps, no double Q, the
+last network kept, unscaled laterals, and the padding bug (``network.stale_padding``).
 ``configs/biarm.yaml``, ``configs/biarm_v2.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
-three configs as files.
+default, ``v2`` and ``v1`` as files (``scaled`` is ``--protocol scaled`` only).
 
 >>> protocol_config("v1").dqn.eps_unit
 'episode'
