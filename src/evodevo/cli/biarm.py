@@ -79,6 +79,11 @@ def _load(
     return cfg
 
 
+_PROTOCOL_HELP = (
+    "DQN protocol preset (SPEC 1.6): default (the measured choice), scaled (the default with 10 "
+    "validation episodes, as its first full runs), v2 (unscaled Xavier laterals, Eq. 3.7 as "
+    "written, 10 validation episodes) or v1 (the first results' protocol)."
+)
 _SET_HELP = "Override a config key, e.g. --set eval.episodes=5 (repeatable)."
 
 
@@ -117,7 +122,7 @@ def train(
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
     protocol: str | None = typer.Option(
         None,
-        help="DQN protocol preset (SPEC 1.6): default (the measured choice), scaled (the default with 10 validation episodes, as its first full runs), v2 (unscaled Xavier laterals, Eq. 3.7 as written, 10 validation episodes) or v1 (the first results' protocol).",
+        help=_PROTOCOL_HELP,
     ),
     resume: bool = typer.Option(
         False,
@@ -253,7 +258,7 @@ def compare(
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
     protocol: str | None = typer.Option(
         None,
-        help="DQN protocol preset (SPEC 1.6): default (the measured choice), scaled (the default with 10 validation episodes, as its first full runs), v2 (unscaled Xavier laterals, Eq. 3.7 as written, 10 validation episodes) or v1 (the first results' protocol).",
+        help=_PROTOCOL_HELP,
     ),
     backend: str = typer.Option(
         "local", help="local (process pool) or ray (one Ray task per run)."
