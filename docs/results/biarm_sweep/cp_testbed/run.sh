@@ -9,6 +9,8 @@ case $N in
   ve10) SETS=(--set eval.validation_every=10) ;;
   ve5) SETS=(--set eval.validation_every=5) ;;
   dq) SETS=(--set dqn.double_q=true) ;;
+  tau002) SETS=(--set dqn.tau=0.002) ;;
+  clip1) SETS=(--set dqn.grad_clip=1.0) ;;
   dqve10) SETS=(--set dqn.double_q=true --set eval.validation_every=10) ;;
 esac
 for s in 0 1 2 3 4; do
