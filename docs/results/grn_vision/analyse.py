@@ -239,6 +239,21 @@ def baselines_on_features() -> None:
         print(f"\n{d.name}: {fmt(sum(mine), len(mine))}, training env steps {steps}")
         for name, e in refs.items():
             print(f"  − {name}: {pfmt(paired(mine, e))}")
+    pooled: dict[str, list[int]] = {}
+    for name, pattern in (
+        ("GRN (keep record)", "vision7_record_s{}"),
+        ("PPO", "ppo_blob_s{}"),
+        ("NEAT", "neat_blob_s{}"),
+    ):
+        runs = [HERE / pattern.format(s) / "eval_test_0_episodes.csv" for s in "012"]
+        if all(r.is_file() for r in runs):
+            pooled[name] = [x for r in runs for x in successes(r, "genome") or []]
+    print("\nseeds 0-2 pooled; pairs matched by seed and episode (exact McNemar):")
+    names = list(pooled)
+    for i, a in enumerate(names):
+        print(f"  {a}: {fmt(sum(pooled[a]), len(pooled[a]))}")
+        for b in names[i + 1 :]:
+            print(f"    − {b}: {pfmt(paired(pooled[a], pooled[b]))}")
 
 
 if __name__ == "__main__":
