@@ -29,7 +29,9 @@ for d in sorted(root.glob("*__s*")):
         "hits": sum(c >= 500 for c in checks),
         "checks": len(checks),
     }
-print("| protocol_variant | kept, mean | per seed: kept @ episode | last network, mean | checks at 500 |")
+print(
+    "| protocol_variant | kept, mean | per seed: kept @ episode | last network, mean | checks at 500 |"
+)
 print("|---|---|---|---|---|")
 for name, r in rows.items():
     n = len(r)
