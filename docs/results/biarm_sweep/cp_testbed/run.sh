@@ -11,6 +11,7 @@ case $N in
   dq) SETS=(--set dqn.double_q=true) ;;
   tau002) SETS=(--set dqn.tau=0.002) ;;
   clip1) SETS=(--set dqn.grad_clip=1.0) ;;
+  clip3) SETS=(--set dqn.grad_clip=3.0) ;;
   dqve10) SETS=(--set dqn.double_q=true --set eval.validation_every=10) ;;
 esac
 for s in 0 1 2 3 4; do
