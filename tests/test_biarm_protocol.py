@@ -211,6 +211,49 @@ def test_keep_best_run_records_validation(tmp_path):
     assert len(rows) == 3 and rows[0].startswith("task,env_id,episode")
 
 
+# ---------------------------------------------------------------- per-task settings
+def _two_tasks(**per_task: Any) -> BiarmConfig:
+    return from_dict(
+        BiarmConfig,
+        {
+            "tasks": [
+                {"env_id": "CartPole-v1", "episodes": 3, "max_steps": 40},
+                {"env_id": "Acrobot-v1", "episodes": 3, "max_steps": 40},
+            ],
+            "dqn": {"batch_size": 8, "learning_starts": 8, "keep": "best", "per_task": per_task},
+            "eval": {"episodes": 2, "validation_every": 2, "validation_episodes": 2},
+        },
+    )
+
+
+def test_per_task_override_applies_to_its_task_only(tmp_path):
+    """``dqn.per_task``: CartPole keeps its last network, Acrobot (no entry) the best one."""
+    cfg = _two_tasks(**{"CartPole-v1": {"keep": "last", "grad_clip": 1.0}})
+    assert cfg.dqn.for_task("CartPole-v1").grad_clip == 1.0
+    assert cfg.dqn.for_task("Acrobot-v1") is cfg.dqn and cfg.dqn.grad_clip == 10.0
+    summary = train(cfg, "pnn", 0, tmp_path)
+    cartpole, acrobot = summary["tasks"]
+    assert "validation" not in cartpole and acrobot["validation"]["kept"] == "best"
+    rows = (tmp_path / "validation.csv").read_text().splitlines()[1:]
+    assert rows and all(r.split(",")[1] == "Acrobot-v1" for r in rows)
+
+
+def test_per_task_entry_with_the_base_values_changes_nothing(tmp_path):
+    plain = train(_two_tasks(), "pnn", 0, tmp_path / "plain")
+    same = train(
+        _two_tasks(**{"CartPole-v1": {"grad_clip": 10.0, "tau": 0.005}}), "pnn", 0, tmp_path / "s"
+    )
+    assert _strip(same["tasks"]) == _strip(plain["tasks"])
+
+
+def test_per_task_override_from_the_command_line():
+    from evodevo.cli.biarm import _load
+
+    cfg = _load(None, None, None, ["dqn.per_task.CartPole-v1.grad_clip=1.0"], "default")
+    assert cfg.dqn.per_task == {"CartPole-v1": {"grad_clip": 1.0}}
+    assert cfg.for_task("CartPole-v1").dqn.grad_clip == 1.0 and cfg.dqn.grad_clip == 10.0
+
+
 # ---------------------------------------------------------------- bad input
 @pytest.mark.parametrize(
     ("data", "needle"),
@@ -223,6 +266,12 @@ def test_keep_best_run_records_validation(tmp_path):
         ({"dqn": {"train_every": 0}}, ("dqn.train_every=0",)),
         ({"eval": {"validation_episodes": 0}}, ("eval.validation_episodes=0",)),
         ({"eval": {"validation_seed": 10_010}}, ("eval.validation_seed=10010", "overlap")),
+        ({"dqn": {"per_task": {"CartPole-v1": {"clip": 1}}}}, ("dqn.per_task.CartPole-v1.clip",)),
+        (
+            {"dqn": {"per_task": {"CartPole-v1": {"grad_clip": -1}}}},
+            ("dqn.per_task.CartPole-v1", "dqn.grad_clip=-1.0"),
+        ),
+        ({"dqn": {"per_task": {"CartPole-v1": 1.0}}}, ("dqn.per_task.CartPole-v1=1.0",)),
     ],
 )
 def test_bad_protocol_values_are_one_clear_error(data, needle):

@@ -314,6 +314,7 @@ def _train_one(
     stop: GracefulStop | None,
 ) -> tuple[DQN, TaskCallback]:
     """Build and train task ``index``'s model until its episode budget is spent."""
+    cfg = cfg.for_task(spec.env_id)  # dqn.per_task
     d = cfg.dqn
     env = make_env(spec.env_id, spec.max_steps)
     try:
@@ -453,7 +454,11 @@ def train_sb3_tasks(
         "final_states": None,
         "wall_seconds": time.perf_counter() - t_start,
         "sb3_version": stable_baselines3.__version__,
-        **({"sb3_double_q": False} if cfg.dqn.double_q else {}),
+        **(
+            {"sb3_double_q": False}
+            if any(cfg.for_task(s.env_id).dqn.double_q for s in specs)
+            else {}
+        ),
     }
     run.write_summary(summary)
     return summary

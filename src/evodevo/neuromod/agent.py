@@ -108,6 +108,8 @@ class BiarmAgent:
         self._td_cpp: tuple[list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]] | None
         self._td_cpp = None
         self.grad_steps = 0
+        # the DQN settings of the task in training (dqn.per_task applied; set by the trainer)
+        self.dqn = cfg.dqn
 
     # ------------------------------------------------------------------ tasks
     def begin_task(self, n_actions: int, lateral_scale: float | None = None) -> None:
@@ -130,7 +132,7 @@ class BiarmAgent:
         # parameters into the flat buffer (same order: the target is a deep copy)
         self._online_params = [p.detach() for p in self.net.current.parameters()]
         self._target_params = [p.detach() for p in self.target.parameters()]
-        self.optimizer = torch.optim.Adam([self.flat.param], lr=self.cfg.dqn.lr, fused=True)
+        self.optimizer = torch.optim.Adam([self.flat.param], lr=self.dqn.lr, fused=True)
         self._group = self.optimizer.param_groups[0]
         self._td_cpp = None
         net = self.net
@@ -171,7 +173,7 @@ class BiarmAgent:
     def lr(self) -> float:
         """Eq. 3.7 (modulated variants; divided by its resting value with
         ``modules.lr_relative``) or ``eta_base`` (PNN)."""
-        base = self.cfg.dqn.lr
+        base = self.dqn.lr
         if self.modules is None:
             return base
         w0, w1, w2, w3 = self._lr_w
@@ -206,7 +208,7 @@ class BiarmAgent:
 
     def update(self, batch: Batch) -> torch.Tensor:
         """One DQN gradient step (SPEC §1.6) at the Eq. 3.7 learning rate; returns the loss."""
-        dqn = self.cfg.dqn
+        dqn = self.dqn
         column = self.net.current
         target = self.target
         opt = self.optimizer
@@ -242,7 +244,7 @@ class BiarmAgent:
         col = self.col
         st = self.states_t
         prev = net.lateral_inputs(torch.cat((obs, nobs)), col, st) if col > 0 else ()
-        dqn = self.cfg.dqn
+        dqn = self.dqn
         return load_kernel().td_update(  # type: ignore[union-attr]
             obs, nobs, act, rew, term, list(prev), _EMPTY if st is None else st,
             online, target, grads, net.gated, dqn.gamma, dqn.huber_delta, dqn.double_q,
@@ -251,7 +253,7 @@ class BiarmAgent:
     def _loss_autograd(self, batch: Batch) -> torch.Tensor:
         """TD loss (Huber on the taken actions, SPEC §1.6) with its autograd graph."""
         obs, nobs, act, rew, term, n_task = batch
-        dqn = self.cfg.dqn
+        dqn = self.dqn
         col = self.col
         column = self.net.current
         target = self.target

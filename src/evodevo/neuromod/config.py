@@ -14,11 +14,13 @@ rejected by the ``validate()`` methods below, naming the key.
 
 from __future__ import annotations
 
+import copy
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
-from evodevo.config import doc
+from evodevo.config import doc, from_dict, to_dict
 from evodevo.errors import ConfigError
 
 __all__ = [
@@ -100,8 +102,35 @@ class DQNConfig:
         "network a task keeps when frozen: last, or best by greedy validation return "
         "(eval.validation_*)",
     )
+    per_task: dict[str, dict[str, Any]] = doc(
+        {},
+        "overrides of the keys above for one task, by Gymnasium id, e.g. {CartPole-v1: "
+        "{grad_clip: 1.0}}; every other task keeps the values above",
+    )
+
+    def for_task(self, env_id: str) -> DQNConfig:
+        """The DQN settings task ``env_id`` trains with: these, with its ``per_task`` entry
+        applied (SPEC §1.6: Table 3.1 is one protocol for every task; an override is ours).
+
+        >>> DQNConfig(per_task={"CartPole-v1": {"grad_clip": 1.0}}).for_task("CartPole-v1").grad_clip
+        1.0
+        >>> DQNConfig(per_task={"CartPole-v1": {"grad_clip": 1.0}}).for_task("Acrobot-v1").grad_clip
+        10.0
+        """
+        over = self.per_task.get(env_id)
+        if not over:
+            return self
+        base = {k: v for k, v in to_dict(self).items() if k != "per_task"}
+        return from_dict(DQNConfig, {**base, **over}, f"dqn.per_task.{env_id}")
 
     def validate(self) -> None:
+        for env_id, over in self.per_task.items():
+            if not isinstance(over, Mapping) or "per_task" in over:
+                raise ConfigError(
+                    f"dqn.per_task.{env_id}={over!r} must map dqn keys (not per_task) to "
+                    "values, e.g. {grad_clip: 1.0}; see `evodevo biarm config`"
+                )
+            self.for_task(env_id)  # unknown keys and bad values: one error naming the key
         checks = [
             ("dqn.lr", self.lr > 0),
             ("dqn.batch_size", self.batch_size >= 1),
@@ -339,6 +368,15 @@ class BiarmConfig:
                 f"checkpoint_every={self.checkpoint_every} must be >= 0 (0 turns mid-task "
                 "checkpoints off)"
             )
+
+    def for_task(self, env_id: str) -> BiarmConfig:
+        """This config with the DQN settings of task ``env_id`` (:meth:`DQNConfig.for_task`)."""
+        dqn = self.dqn.for_task(env_id)
+        if dqn is self.dqn:
+            return self
+        out = copy.copy(self)
+        out.dqn = dqn
+        return out
 
     def scaled_episodes(self, task: TaskConfig) -> int:
         """Episodes of ``task`` after ``episodes_scale`` (round, at least 1)."""

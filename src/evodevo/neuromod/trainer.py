@@ -126,6 +126,7 @@ class TaskRunner:
     ) -> None:
         self.agent, self.spec, self.index = agent, spec, index
         self.metrics, self.neuromod, self.hook = metrics, neuromod, hook
+        agent.dqn = agent.cfg.dqn.for_task(spec.env_id)  # dqn.per_task (SPEC §1.6)
         if resume is None:
             agent.begin_task(spec.n_actions)
         self.rng = np_rng(seed, 1, index)
@@ -134,14 +135,14 @@ class TaskRunner:
             # smaller observation writes only its first spec.obs_dim entries
             agent.obs_np[:] = 0.0
         self.env = make_env(spec.env_id, spec.max_steps)
-        self.buf = ReplayBuffer(agent.cfg.dqn.replay_size, agent.obs_dim)
+        self.buf = ReplayBuffer(agent.dqn.replay_size, agent.obs_dim)
         self.nxt = np.zeros(agent.obs_dim, dtype=np.float32)
-        self.eps = agent.cfg.dqn.eps_start
+        self.eps = agent.dqn.eps_start
         self.step = step0
         self.task_steps = 0
         self.episodes_done = 0
         self.per_step: list[float] = []
-        self.keeper = BestColumn(agent.cfg, spec.episodes) if agent.cfg.dqn.keep == "best" else None
+        self.keeper = BestColumn(agent.cfg, spec.episodes) if agent.dqn.keep == "best" else None
         if resume is None:
             self._obs, _ = self.env.reset(seed=derive(seed, 2, index))
         else:
@@ -213,7 +214,7 @@ class TaskRunner:
         """Run one training episode (stopping early at ``max_env_steps`` task steps)."""
         agent, spec, index = self.agent, self.spec, self.index
         cfg = agent.cfg
-        dqn = cfg.dqn
+        dqn = agent.dqn
         rng, buf, nxt = self.rng, self.buf, self.nxt
         row = agent.obs_np
         n = spec.obs_dim
@@ -458,7 +459,7 @@ def train(
         CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
         (
             CsvAppender(run / "validation.csv", VALIDATION_FIELDS)
-            if cfg.dqn.keep == "best"
+            if any(cfg.dqn.for_task(s.env_id).keep == "best" for s in specs)
             else contextlib.nullcontext()
         ) as validation,
     ):
