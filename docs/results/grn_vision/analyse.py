@@ -256,9 +256,29 @@ def baselines_on_features() -> None:
             print(f"    − {b}: {pfmt(paired(pooled[a], pooled[b]))}")
 
 
+def neuromodulated() -> None:
+    """The neuromodulated GRN (SPEC §5) on the vision preset (``vision9_nm_s*``) against the
+    plain GRN and the blind GRN of the same seed (``keep: record``) and the constant turn."""
+    for d in sorted(HERE.glob("vision9_nm_s*")):
+        ev = d / "eval_test_0_episodes.csv"
+        if not ev.is_file():
+            continue
+        s = d.name.rsplit("_s", 1)[1]
+        mine = successes(ev, "genome")
+        assert mine is not None
+        print(f"\nneuromodulated GRN, seed {s}: {fmt(sum(mine), len(mine))}")
+        for name, other in (
+            ("plain GRN", successes(HERE / f"vision7_record_s{s}" / ev.name, "genome")),
+            ("blind GRN", successes(HERE / f"vision7_blind_s{s}" / ev.name, "genome")),
+            ("constant turn", successes(BASE, "turn")),
+        ):
+            print(f"  − {name}: {pfmt(paired(mine, other))}")
+
+
 if __name__ == "__main__":
     main()
     second_preset()
     preset_vs_own_blind()
     preset_vs_own_blind("vision7_record", "vision7_blind")
     baselines_on_features()
+    neuromodulated()
