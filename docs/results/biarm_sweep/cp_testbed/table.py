@@ -1,7 +1,7 @@
 """CartPole as the thesis sequence's first task (d_max 8), final greedy return per protocol and
 seed (issue 21). Usage: python docs/results/biarm_sweep/cp_testbed/table.py
 
-A run is ``runs/cp_testbed/run.sh NAME VARIANT``: ``evodevo biarm train --variant V --tasks
+A run is ``docs/results/biarm_sweep/testbed.sh CartPole-v1 NAME VARIANT``: ``evodevo biarm train --variant V --tasks
 CartPole-v1 --seed S --set network.d_max=8 [overrides]``, which gives the first column of a
 full 4-task run bit for bit (PNN seed 1: 258.6 in both, after 40,252 steps). Columns: kept
 network on the 20 evaluation seeds @ the episode it was validated at; the last network's mean on
