@@ -27,7 +27,7 @@ import yaml
 
 from evodevo.errors import ConfigError
 
-__all__ = ["doc", "from_dict", "load_config", "to_dict", "describe", "replace"]
+__all__ = ["doc", "from_dict", "load_config", "merge", "to_dict", "describe", "replace"]
 
 T = TypeVar("T")
 
@@ -179,7 +179,7 @@ def load_config(
             )
         data = dict(loaded)
     if overrides:
-        data = _merge(data, overrides)
+        data = merge(data, overrides)
     return from_dict(cls, data)
 
 
@@ -199,11 +199,18 @@ def _check_seed(key: str, value: Any) -> None:
         raise ConfigError(f"{key}={value}: a seed must be >= 0")
 
 
-def _merge(base: Mapping[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
+def merge(base: Mapping[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
+    """``extra`` over ``base``, nested mappings merged key by key; an *empty* mapping in
+    ``extra`` replaces the one in ``base`` (merging it would change nothing, so writing
+    ``key: {}`` means "none", e.g. ``dqn.per_task: {}`` over a default with entries).
+
+    >>> merge({"a": {"x": 1, "y": 2}, "b": {"z": 3}}, {"a": {"y": 5}, "b": {}})
+    {'a': {'x': 1, 'y': 5}, 'b': {}}
+    """
     out = dict(base)
     for k, v in extra.items():
-        if isinstance(v, Mapping) and isinstance(out.get(k), Mapping):
-            out[k] = _merge(out[k], v)
+        if isinstance(v, Mapping) and v and isinstance(out.get(k), Mapping):
+            out[k] = merge(out[k], v)
         else:
             out[k] = v
     return out

@@ -31,13 +31,6 @@ app = typer.Typer(
 )
 
 
-def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
-    out = dict(base)
-    for k, v in extra.items():
-        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
-    return out
-
-
 def _budget_from(path: Path, scale: float) -> int:
     """Env steps of a finished run (``summary.json``: ``env_steps``) times ``scale``."""
     from evodevo.runs import read_json
@@ -85,7 +78,7 @@ def kuka(
     `baselines evaluate`.
     """
     from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
-    from evodevo.config import load_config
+    from evodevo.config import load_config, merge
     from evodevo.parallel import set_single_thread
     from evodevo.runs import read_json
 
@@ -122,7 +115,7 @@ def kuka(
             raise EvodevoError(
                 f"--resume: {str(out)!r} holds a {saved.get('kind')!r} run, not a baseline run"
             )
-        cfg = load_config(KukaBaselineConfig, None, _merge(saved.get("config", {}), ov))
+        cfg = load_config(KukaBaselineConfig, None, merge(saved.get("config", {}), ov))
     else:
         cfg = load_config(KukaBaselineConfig, config, ov)
     summary = _train(cfg, out, workers, resume, quiet, backend, address, tensorboard)

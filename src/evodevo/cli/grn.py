@@ -74,13 +74,6 @@ def _overrides(
     return out
 
 
-def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
-    out = dict(base)
-    for k, v in extra.items():
-        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
-    return out
-
-
 @contextlib.contextmanager
 def _remove_if_failed(out: Path, fresh: bool) -> Iterator[None]:
     """Remove ``out`` again if this command created it and a user error (e.g. an environment
@@ -186,7 +179,7 @@ def evolve(
     ),
 ) -> None:
     """Evolve a GRN (Algorithm 3) into OUT: best_genome.npz, encoder.pt, history.csv, summary.json."""
-    from evodevo.config import load_config
+    from evodevo.config import load_config, merge
     from evodevo.grn.config import GrnConfig
     from evodevo.grn.evolution import evolve_run
     from evodevo.parallel import set_single_thread
@@ -205,21 +198,21 @@ def evolve(
         )
     if resume and config is None:
         saved = read_json(out / "config.json").get("config", {})
-        cfg = load_config(GrnConfig, None, _merge(saved, ov))
+        cfg = load_config(GrnConfig, None, merge(saved, ov))
     elif config is None:  # the default preset sees (issue 22); --preset thesis: the thesis
         from evodevo.grn.config import vision_preset
 
         if preset not in ("vision", "thesis"):
             raise EvodevoError(f"--preset {preset!r} is not a preset; choose vision or thesis")
         base = vision_preset() if preset == "vision" else {}
-        cfg = load_config(GrnConfig, None, _merge(base, ov))
+        cfg = load_config(GrnConfig, None, merge(base, ov))
     else:
         cfg = load_config(GrnConfig, config, ov)
     if env_id is not None:
         from evodevo.config import to_dict
 
         env_ov = _env_overrides(env_id, cfg)
-        merged = _merge(to_dict(cfg), env_ov)
+        merged = merge(to_dict(cfg), env_ov)
         merged["env"] = env_ov["env"]  # the new env's kwargs replace the old env's
         cfg = load_config(GrnConfig, None, merged)
     if cfg.controller == "open_loop" and cfg.sensors.blind:

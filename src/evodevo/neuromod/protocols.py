@@ -33,7 +33,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from evodevo.config import from_dict, to_dict
+from evodevo.config import from_dict, merge, to_dict
 from evodevo.errors import ConfigError
 from evodevo.neuromod.config import BiarmConfig
 
@@ -64,16 +64,6 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
 }
 
 
-def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
-    out = dict(base)
-    for key, value in over.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
-            out[key] = _merge(out[key], value)
-        else:
-            out[key] = value
-    return out
-
-
 def apply_protocol(data: Mapping[str, Any], name: str) -> dict[str, Any]:
     """Overrides ``data`` (nested dict, e.g. from ``--set``) on top of protocol ``name``'s
     keys: the CLI applies the result over the config file, so the order is defaults, config
@@ -82,9 +72,9 @@ def apply_protocol(data: Mapping[str, Any], name: str) -> dict[str, Any]:
         raise ConfigError(
             f"protocol {name!r} is not one of {', '.join(PROTOCOLS)}; see docs/results/biarm.md"
         )
-    return _merge(_merge({}, PROTOCOLS[name]), data)
+    return merge(PROTOCOLS[name], data)
 
 
 def protocol_config(name: str) -> BiarmConfig:
     """The full config of protocol ``name``."""
-    return from_dict(BiarmConfig, _merge(to_dict(BiarmConfig()), apply_protocol({}, name)))
+    return from_dict(BiarmConfig, merge(to_dict(BiarmConfig()), apply_protocol({}, name)))
