@@ -19,7 +19,7 @@ from evodevo.neuromod.agent import BiarmAgent
 from evodevo.neuromod.columns import huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.keep_best import BestColumn
-from evodevo.neuromod.protocols import PROTOCOLS, protocol_config
+from evodevo.neuromod.protocols import PROTOCOLS, apply_protocol, protocol_config
 from evodevo.neuromod.replay import ReplayBuffer
 from evodevo.neuromod.tasks import resolve_tasks
 from evodevo.neuromod.trainer import TIMING_KEYS, TaskRunner
@@ -291,9 +291,24 @@ def test_config_files_match_the_protocols():
     assert to_dict(from_dict(BiarmConfig, v2)) == to_dict(protocol_config("v2"))
     scaled = to_dict(protocol_config("scaled"))
     assert scaled["eval"]["validation_episodes"] == 10
-    scaled["eval"]["validation_episodes"] = 20  # the only difference from the default
-    assert scaled == to_dict(protocol_config("default"))
-    assert set(PROTOCOLS) == {"default", "scaled", "v2", "v1"}
+    scaled["eval"]["validation_episodes"] = 20  # the only difference from v3
+    assert scaled == to_dict(protocol_config("v3"))
+    v3 = to_dict(protocol_config("v3"))
+    assert v3["dqn"]["per_task"] == {} and default["dqn"]["per_task"] != {}
+    v3["dqn"]["per_task"] = default["dqn"]["per_task"]  # the only difference from the default
+    assert v3 == to_dict(protocol_config("default"))
+    assert set(PROTOCOLS) == {"default", "v3", "scaled", "v2", "v1"}
+
+
+def test_a_protocol_clears_the_per_task_settings_of_a_config_file():
+    """``--protocol v3`` over ``configs/biarm.yaml`` (CartPole clipped at 1) trains CartPole
+    with the common clip: the protocol's empty ``per_task`` replaces the file's."""
+    cfg = load_config(BiarmConfig, ROOT / "configs" / "biarm.yaml", apply_protocol({}, "v3"))
+    assert cfg.dqn.per_task == {} and cfg.dqn.for_task("CartPole-v1").grad_clip == 10.0
+    over = apply_protocol({"dqn": {"per_task": {"Acrobot-v1": {"tau": 0.01}}}}, "default")
+    cfg = load_config(BiarmConfig, ROOT / "configs" / "biarm.yaml", over)
+    assert cfg.dqn.for_task("CartPole-v1").grad_clip == 1.0
+    assert cfg.dqn.for_task("Acrobot-v1").tau == 0.01
 
 
 def _strip(obj: Any) -> Any:
@@ -412,3 +427,22 @@ def test_runs_written_before_lateral_init_resume_as_xavier(tmp_path):
     cfg.network.lateral_init = "zero"
     with pytest.raises(CheckpointError, match="network"):
         _check_resume(run, get_variant("pnn"), 0, cfg)
+
+
+def test_runs_written_before_per_task_resume_without_it(tmp_path):
+    """A config.json without ``dqn.per_task`` (every run before it existed) resumes with no
+    per-task settings, not with today's default (CartPole clipped at 1): ``train --resume``
+    reads it so, and the consistency check accepts it."""
+    from evodevo.cli.biarm import _resume_settings
+    from evodevo.neuromod.trainer import _check_resume
+    from evodevo.runs import RunDir
+
+    run = RunDir(tmp_path / "old")
+    cfg = protocol_config("v3")
+    old = {"variant": "pnn", "seed": 3, **to_dict(cfg)}
+    del old["dqn"]["per_task"]
+    run.write_config(old, kind="biarm")
+    variant, seed, resumed = _resume_settings(run.path, None, None, own_config=False)
+    assert (variant, seed) == ("pnn", 3) and resumed.dqn.per_task == {}
+    assert to_dict(resumed) == to_dict(cfg)
+    _check_resume(run, get_variant("pnn"), 3, resumed)

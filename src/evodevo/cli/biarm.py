@@ -80,9 +80,10 @@ def _load(
 
 
 _PROTOCOL_HELP = (
-    "DQN protocol preset (SPEC 1.6): default (the measured choice), scaled (the default with 10 "
-    "validation episodes, as its first full runs), v2 (unscaled Xavier laterals, Eq. 3.7 as "
-    "written, 10 validation episodes) or v1 (the first results' protocol)."
+    "DQN protocol preset (SPEC 1.6): default (the measured choice), v3 (the default without "
+    "CartPole's gradient clip of 1), scaled (v3 with 10 validation episodes, as its first full "
+    "runs), v2 (unscaled Xavier laterals, Eq. 3.7 as written, 10 validation episodes) or v1 "
+    "(the first results' protocol)."
 )
 _SET_HELP = "Override a config key, e.g. --set eval.episodes=5 (repeatable)."
 
@@ -93,6 +94,7 @@ def _resume_settings(
     """Variant, seed and config saved in OUT/config.json (for ``train --resume``)."""
     from evodevo.config import from_dict
     from evodevo.neuromod.config import BiarmConfig
+    from evodevo.neuromod.trainer import saved_config
     from evodevo.runs import read_json
 
     saved = read_json(out / "config.json")
@@ -100,7 +102,7 @@ def _resume_settings(
         raise EvodevoError(
             f"--resume: {str(out)!r} holds a {saved.get('kind')!r} run, not a BIARM run"
         )
-    data = dict(saved.get("config", {}))
+    data = saved_config(saved.get("config", {}))
     saved_variant, saved_seed = data.pop("variant", None), data.pop("seed", None)
     cfg = None if own_config else from_dict(BiarmConfig, data)
     return (

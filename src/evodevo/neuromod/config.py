@@ -103,9 +103,10 @@ class DQNConfig:
         "(eval.validation_*)",
     )
     per_task: dict[str, dict[str, Any]] = doc(
-        {},
-        "overrides of the keys above for one task, by Gymnasium id, e.g. {CartPole-v1: "
-        "{grad_clip: 1.0}}; every other task keeps the values above",
+        {"CartPole-v1": {"grad_clip": 1.0}},
+        "overrides of the keys above for one task, by Gymnasium id (every other task keeps the "
+        "values above); the default clips CartPole's gradient norm at 1 (issue 21; {} in "
+        "protocols v3, scaled, v2, v1)",
     )
 
     def for_task(self, env_id: str) -> DQNConfig:
@@ -120,7 +121,7 @@ class DQNConfig:
         over = self.per_task.get(env_id)
         if not over:
             return self
-        base = {k: v for k, v in to_dict(self).items() if k != "per_task"}
+        base = {**to_dict(self), "per_task": {}}  # the task's own settings have none
         return from_dict(DQNConfig, {**base, **over}, f"dqn.per_task.{env_id}")
 
     def validate(self) -> None:

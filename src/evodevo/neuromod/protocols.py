@@ -5,18 +5,22 @@ A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
 a soft target (τ 0.005), the best validated network kept, the earlier columns' activations
 scaled by ``network.lateral_scale`` = 0.0001 where a new column reads them, a new column's
-lateral maps starting at zero (``network.lateral_init``: it starts as an isolated column), and
+lateral maps starting at zero (``network.lateral_init``: it starts as an isolated column),
 BIARM's Eq. 3.7 taken relative to the modules' resting state (``modules.lr_relative``: η_base
-at rest instead of η_base / 2; PNN is unaffected), and 20 greedy validation episodes per check
-(``eval.validation_episodes``). ``scaled`` is the same protocol with 10 validation episodes, as
+at rest instead of η_base / 2; PNN is unaffected), 20 greedy validation episodes per check
+(``eval.validation_episodes``), and CartPole's gradient norm clipped at 1 instead of 10
+(``dqn.per_task``: its column no longer collapses; MountainCar needs the looser clip to carry
+its rare flag back). ``v3`` is the previous default, without the per-task clip
+(``docs/results/biarm_sweep/val20_full``); ``scaled`` is ``v3`` with 10 validation episodes, as
 its first full runs (``docs/results/thesis/biarm_scaled``) were made.
-``v2`` is the previous default (``docs/results/thesis/biarm_default``): the same DQN details with
-unscaled, Xavier-initialised laterals, Eq. 3.7 as written and 10 validation episodes. ``v1`` is
-the first protocol, under which the committed first results (``docs/results/thesis/biarm``) were
-measured: ε × 0.995 per *episode*, a hard target copy every 500 gradient steps, no double Q, the
-last network kept, unscaled laterals, and the padding bug (``network.stale_padding``).
-``configs/biarm.yaml``, ``configs/biarm_v2.yaml`` and ``configs/biarm_spec_v1.yaml`` hold the
-default, ``v2`` and ``v1`` as files (``scaled`` is ``--protocol scaled`` only).
+``v2`` is the default of 2026-12-04 (``docs/results/thesis/biarm_default``): the same DQN
+details with unscaled, Xavier-initialised laterals, Eq. 3.7 as written and 10 validation
+episodes. ``v1`` is the first protocol, under which the committed first results
+(``docs/results/thesis/biarm``) were measured: ε × 0.995 per *episode*, a hard target copy
+every 500 gradient steps, no double Q, the last network kept, unscaled laterals, and the
+padding bug (``network.stale_padding``). ``configs/biarm.yaml``, ``configs/biarm_v2.yaml`` and
+``configs/biarm_spec_v1.yaml`` hold the default, ``v2`` and ``v1`` as files (``v3`` and
+``scaled`` are ``--protocol`` only).
 
 >>> protocol_config("v1").dqn.eps_unit
 'episode'
@@ -26,6 +30,10 @@ default, ``v2`` and ``v1`` as files (``scaled`` is ``--protocol scaled`` only).
 0.0001
 >>> protocol_config("v2").network.lateral_init
 'xavier'
+>>> protocol_config("default").dqn.for_task("CartPole-v1").grad_clip
+1.0
+>>> protocol_config("v3").dqn.for_task("CartPole-v1").grad_clip
+10.0
 """
 
 from __future__ import annotations
@@ -42,9 +50,12 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    # the default as its first full runs (thesis/biarm_scaled) ran it: 10 validation episodes
-    "scaled": {"eval": {"validation_episodes": 10}},
+    # the previous default (biarm_sweep/val20_full): no per-task settings; `{}` replaces
+    "v3": {"dqn": {"per_task": {}}},
+    # v3 as its first full runs (thesis/biarm_scaled) ran it: 10 validation episodes
+    "scaled": {"dqn": {"per_task": {}}, "eval": {"validation_episodes": 10}},
     "v2": {
+        "dqn": {"per_task": {}},
         "network": {"lateral_scale": 1.0, "lateral_init": "xavier"},
         "modules": {"lr_relative": False},
         "eval": {"validation_episodes": 10},
@@ -56,6 +67,7 @@ PROTOCOLS: dict[str, dict[str, Any]] = {
             "target_update": 500,
             "double_q": False,
             "keep": "last",
+            "per_task": {},
         },
         "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
         "modules": {"lr_relative": False},

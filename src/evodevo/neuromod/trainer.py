@@ -60,6 +60,7 @@ __all__ = [
     "NEUROMOD_FIELDS",
     "TIMING_KEYS",
     "load_agent",
+    "saved_config",
     "resume_hint",
 ]
 
@@ -323,24 +324,37 @@ def _truncate_csv(run: RunDir, name: str, fields: list[str], last_step: int) -> 
     run.write_csv(name, rows, fields)
 
 
+#: keys added to the config after runs were saved without them -> the value those runs ran with
+_ADDED_KEYS: dict[str, dict[str, Any]] = {
+    "dqn": {"train_every": 1, "per_task": {}},
+    "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
+    "modules": {"lr_relative": False},
+}
+
+
+def saved_config(data: dict[str, Any]) -> dict[str, Any]:
+    """A run's saved ``config`` (``config.json``) with the keys added since it was written
+    filled in as that run ran (not with today's defaults), so it resumes as it started.
+
+    >>> saved_config({"dqn": {"lr": 0.001}})["dqn"]
+    {'train_every': 1, 'per_task': {}, 'lr': 0.001}
+    """
+    out = dict(data)
+    for section, added in _ADDED_KEYS.items():
+        if isinstance(out.get(section), dict):
+            out[section] = {**added, **out[section]}
+    return out
+
+
 def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) -> None:
     saved = run.read_config()
     mine = {"variant": variant.name, "seed": seed, **to_dict(cfg)}
-    theirs = saved.get("config", {})
+    theirs = saved_config(saved.get("config", {}))
     # network.lateral_kernel picks an implementation, not the experiment: runs may resume
     # across it (and configs written before it existed lack it)
     for part in (theirs, mine):
         if isinstance(part.get("network"), dict):
             part["network"] = {k: v for k, v in part["network"].items() if k != "lateral_kernel"}
-            # configs written before network.lateral_init existed ran with Xavier laterals
-            part["network"].setdefault("lateral_init", "xavier")
-            part["network"].setdefault("lateral_scale", 1.0)
-        if isinstance(part.get("modules"), dict):  # written before modules.lr_relative existed
-            part["modules"] = {"lr_relative": False, **part["modules"]}
-    if isinstance(theirs.get("dqn"), dict):  # runs written before dqn.train_every: every step
-        theirs["dqn"].setdefault("train_every", 1)
-    if isinstance(theirs.get("network"), dict):  # runs written before network.stale_padding
-        theirs["network"].setdefault("stale_padding", True)  # trained with the stale padding
     keys = ["variant", "seed", "tasks", "episodes_scale", "dqn", "network"]
     if variant.modulated:  # the modules' settings change nothing in PNN, fine-tuning or EWC
         keys.append("modules")
@@ -566,7 +580,7 @@ def train(
 def load_agent(run_dir: str | Path) -> BiarmAgent:
     """Rebuild the trained agent of a run directory from its last checkpoint."""
     run = RunDir(run_dir, create=False)
-    saved = run.read_config()["config"]
+    saved = saved_config(run.read_config()["config"])
     variant = saved.pop("variant")
     seed = int(saved.pop("seed"))
     cfg = from_dict(BiarmConfig, saved)

@@ -92,8 +92,9 @@ def protocol_table(out: Path, cfg: Any) -> list[str]:
         "that scored best on 10 validation episodes (its runs also had the padding bug); "
         "`scaled`: v2 with the earlier columns' activations × 0.0001 where a new column's "
         "zero-initialised laterals read them, Eq. 3.7 relative to the modules' resting state, "
-        "and zero padding; `default`: `scaled` with 20 validation episodes per check instead "
-        "of 10 (docs/results/biarm.md).",
+        "and zero padding; `v3`: `scaled` with 20 validation episodes per check instead "
+        "of 10; `default`: `v3` with CartPole's gradient norm clipped at 1 instead of 10 "
+        "(docs/results/biarm.md).",
         "",
         *rows,
         "",

@@ -48,7 +48,7 @@ class BiarmBudget:
     )
     protocol: str = doc(
         "default",
-        "DQN protocol of the grid in biarm/ (SPEC §1.6): default, v2, v1 (scaled = default)",
+        "DQN protocol of the grid in biarm/ (SPEC §1.6): default, v3, scaled, v2, v1",
     )
     other_protocols: dict[str, str] = doc(
         {"biarm_v1": "v1"},
