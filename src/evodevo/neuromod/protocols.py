@@ -11,7 +11,7 @@ at rest instead of η_base / 2; PNN is unaffected), 20 greedy validation episode
 (``eval.validation_episodes``), and CartPole's gradient norm clipped at 1 instead of 10
 (``dqn.per_task``: its column no longer collapses; MountainCar needs the looser clip to carry
 its rare flag back). ``v3`` is the previous default, without the per-task clip
-(``docs/results/biarm_sweep/val20_full``); ``scaled`` is ``v3`` with 10 validation episodes, as
+(``docs/results/thesis/biarm_v3``); ``scaled`` is ``v3`` with 10 validation episodes, as
 its first full runs (``docs/results/thesis/biarm_scaled``) were made.
 ``v2`` is the default of 2026-12-04 (``docs/results/thesis/biarm_default``): the same DQN
 details with unscaled, Xavier-initialised laterals, Eq. 3.7 as written and 10 validation
@@ -50,7 +50,7 @@ __all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
 #: name -> overrides of the config defaults (nested sections).
 PROTOCOLS: dict[str, dict[str, Any]] = {
     "default": {},
-    # the previous default (biarm_sweep/val20_full): no per-task settings; `{}` replaces
+    # the previous default (thesis/biarm_v3): no per-task settings; `{}` replaces
     "v3": {"dqn": {"per_task": {}}},
     # v3 as its first full runs (thesis/biarm_scaled) ran it: 10 validation episodes
     "scaled": {"dqn": {"per_task": {}}, "eval": {"validation_episodes": 10}},
