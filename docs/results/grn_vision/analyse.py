@@ -239,12 +239,18 @@ def baselines_on_features() -> None:
         print(f"\n{d.name}: {fmt(sum(mine), len(mine))}, training env steps {steps}")
         for name, e in refs.items():
             print(f"  − {name}: {pfmt(paired(mine, e))}")
-    pooled: dict[str, list[int]] = {}
-    for name, pattern in (
+    pooled_pairs(
         ("GRN (keep record)", "vision7_record_s{}"),
         ("PPO", "ppo_blob_s{}"),
         ("NEAT", "neat_blob_s{}"),
-    ):
+    )
+
+
+def pooled_pairs(*runs_of: tuple[str, str]) -> None:
+    """Seeds 0-2 pooled per policy (name, run-folder pattern), and every pair of them on the
+    same episodes matched by seed (exact McNemar); a policy with a seed missing is left out."""
+    pooled: dict[str, list[int]] = {}
+    for name, pattern in runs_of:
         runs = [HERE / pattern.format(s) / "eval_test_0_episodes.csv" for s in "012"]
         if all(r.is_file() for r in runs):
             pooled[name] = [x for r in runs for x in successes(r, "genome") or []]
@@ -273,6 +279,11 @@ def neuromodulated() -> None:
             ("constant turn", successes(BASE, "turn")),
         ):
             print(f"  − {name}: {pfmt(paired(mine, other))}")
+    pooled_pairs(
+        ("neuromodulated GRN", "vision9_nm_s{}"),
+        ("plain GRN (keep record)", "vision7_record_s{}"),
+        ("blind GRN", "vision7_blind_s{}"),
+    )
 
 
 if __name__ == "__main__":
