@@ -286,6 +286,34 @@ def neuromodulated() -> None:
     )
 
 
+def noisy_features() -> None:
+    """The preset's kept genomes (``vision7_record_s*``) with N(0, 0.03²) noise on the visual
+    features (``evodevo grn evaluate DIR --test-episodes 200 --noise 0.03``) against the same
+    genome clean, the constant turn and the blind GRN (no visual input, so no noise to add)."""
+    pooled: dict[str, list[int]] = {"noisy": [], "clean": [], "blind": [], "turn": []}
+    for s in "012":
+        d = HERE / f"vision7_record_s{s}"
+        runs = {
+            "noisy": successes(d / "eval_test_0.03_episodes.csv", "genome_noisy"),
+            "clean": successes(d / "eval_test_0_episodes.csv", "genome"),
+            "blind": successes(HERE / f"vision7_blind_s{s}" / "eval_test_0_episodes.csv", "genome"),
+            "turn": successes(BASE, "turn"),
+        }
+        if any(v is None for v in runs.values()):
+            continue
+        noisy = runs["noisy"] or []
+        print(f"\nGRN with feature noise 0.03, seed {s}: {fmt(sum(noisy), len(noisy))}")
+        for name in ("clean", "blind", "turn"):
+            print(f"  − {name}: {pfmt(paired(noisy, runs[name]))}")
+            pooled[name] += runs[name] or []
+        pooled["noisy"] += noisy
+    if pooled["noisy"]:
+        noisy = pooled["noisy"]
+        print(f"\npooled with feature noise: {fmt(sum(noisy), len(noisy))}")
+        for name in ("clean", "blind", "turn"):
+            print(f"  − {name}: {pfmt(paired(noisy, pooled[name]))}")
+
+
 if __name__ == "__main__":
     main()
     second_preset()
@@ -293,3 +321,4 @@ if __name__ == "__main__":
     preset_vs_own_blind("vision7_record", "vision7_blind")
     baselines_on_features()
     neuromodulated()
+    noisy_features()
