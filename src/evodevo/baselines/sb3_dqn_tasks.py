@@ -456,7 +456,7 @@ def train_sb3_tasks(
         "sb3_version": stable_baselines3.__version__,
         **(
             {"sb3_double_q": False}
-            if any(cfg.for_task(s.env_id).dqn.double_q for s in specs)
+            if any(cfg.dqn.for_task(s.env_id).double_q for s in specs)
             else {}
         ),
     }

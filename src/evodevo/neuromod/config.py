@@ -14,13 +14,12 @@ rejected by the ``validate()`` methods below, naming the key.
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from evodevo.config import doc, from_dict, to_dict
+from evodevo.config import doc, from_dict, replace, to_dict
 from evodevo.errors import ConfigError
 
 __all__ = [
@@ -373,11 +372,7 @@ class BiarmConfig:
     def for_task(self, env_id: str) -> BiarmConfig:
         """This config with the DQN settings of task ``env_id`` (:meth:`DQNConfig.for_task`)."""
         dqn = self.dqn.for_task(env_id)
-        if dqn is self.dqn:
-            return self
-        out = copy.copy(self)
-        out.dqn = dqn
-        return out
+        return self if dqn is self.dqn else replace(self, dqn=dqn)
 
     def scaled_episodes(self, task: TaskConfig) -> int:
         """Episodes of ``task`` after ``episodes_scale`` (round, at least 1)."""
