@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evodevo.config import from_dict
+from evodevo.errors import ConfigError
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.genome import init_genome
 from evodevo.grn.mutation import mutate_genome
@@ -76,3 +78,36 @@ def test_open_loop_mutation_stays_in_action_range():
     child = ctrl.mutate(g, rng)
     assert child.actions.shape == (8, 3) and np.abs(child.actions).max() <= 1.0
     assert not np.array_equal(child.actions, g.actions)
+
+
+def test_block_sigma_and_block_p_act_on_the_named_blocks_only():
+    base = {"p_struct": 0.0, "p_weight": 1.0, "p_param": 1.0, "sigma": 0.1}
+    plain = from_dict(GrnConfig, {"mutation": base})
+    parent = init_genome(plain, 3, np.random.default_rng(0))
+    same = from_dict(GrnConfig, {"mutation": {**base, "block_sigma": {}, "block_p": {}}})
+    a = mutate_genome(parent, plain, np.random.default_rng(1))
+    b = mutate_genome(parent, same, np.random.default_rng(1))
+    for name in ("W_s", "W_r", "W_m", "P", "theta", "delta", "alpha"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    # W_s with 10 x the step, W_r frozen: the same draws, scaled or skipped
+    blocks = from_dict(
+        GrnConfig, {"mutation": {**base, "block_sigma": {"W_s": 1.0}, "block_p": {"W_r": 0.0}}}
+    )
+    c = mutate_genome(parent, blocks, np.random.default_rng(1))
+    np.testing.assert_allclose(c.W_s - parent.W_s, 10 * (a.W_s - parent.W_s))
+    np.testing.assert_array_equal(c.W_r, parent.W_r)
+    assert not np.array_equal(c.W_m, parent.W_m)
+
+
+@pytest.mark.parametrize(
+    "mutation, match",
+    [
+        ({"block_sigma": {"W_x": 0.1}}, "unknown block 'W_x'"),
+        ({"block_p": {"W_s": 1.5}}, r"mutation.block_p.W_s=1.5"),
+        ({"block_sigma": {"theta": -0.1}}, r"mutation.block_sigma.theta=-0.1"),
+        ({"block_sigma": {"W_m": "big"}}, "must be a number"),
+    ],
+)
+def test_bad_block_mutation_values_name_the_value(mutation, match):
+    with pytest.raises(ConfigError, match=match):
+        from_dict(GrnConfig, {"mutation": mutation})

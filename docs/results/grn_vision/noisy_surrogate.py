@@ -71,6 +71,16 @@ ROWS: dict[str, dict[str, Any]] = {
     "preset, tournament 2": {"evolution": {"tournament": 2}},
     "preset, 1 elite": {"evolution": {"elite_fraction": 0.09}},
     "preset, tournament 5, 1 elite": {"evolution": {"tournament": 5, "elite_fraction": 0.09}},
+    # ninth session: a mutation step per block (mutation.block_sigma / block_p)
+    "W_s, W_m sigma 0.3": {"mutation": {"block_sigma": {"W_s": 0.3, "W_m": 0.3}}},
+    "W_s, W_m sigma 0.2, p 1": {
+        "mutation": {"block_sigma": {"W_s": 0.2, "W_m": 0.2}, "block_p": {"W_s": 1.0, "W_m": 1.0}}
+    },
+    "W_r, theta, delta, alpha sigma 0.03": {
+        "mutation": {"block_sigma": {"W_r": 0.03, "theta": 0.03, "delta": 0.03, "alpha": 0.03}}
+    },
+    "W_r, P sigma 0": {"mutation": {"block_p": {"W_r": 0.0, "P": 0.0}}},
+    "W_s, W_m sigma 0.05": {"mutation": {"block_sigma": {"W_s": 0.05, "W_m": 0.05}}},
 }
 
 

@@ -21,6 +21,8 @@ from evodevo.errors import ConfigError
 
 DISTANCE_AT = ("end", "grasp")
 """Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
+GENOME_BLOCKS = ("W_s", "W_r", "W_m", "P", "theta", "delta", "alpha")
+"""The blocks of a plain GRN genome that weight and parameter mutation perturb (SPEC §2.3)."""
 KEEP = ("last", "record")
 """Values of ``evolution.keep``: which genome an evolution returns."""
 DISTANCE_TO = ("nearest", "target")
@@ -41,6 +43,7 @@ __all__ = [
     "DISTANCE_AT",
     "DISTANCE_TO",
     "KEEP",
+    "GENOME_BLOCKS",
 ]
 
 
@@ -172,12 +175,41 @@ class MutationConfig:
         False,
         "add weight noise to every W_r entry (the thesis' density artefact) not only present ones",
     )
+    block_sigma: dict[str, float] = doc(
+        {},
+        "noise std per block, overriding sigma for the blocks named (W_s, W_r, W_m, P, theta, "
+        "delta, alpha); {} = sigma for every block (SPEC §2.4)",
+    )
+    block_p: dict[str, float] = doc(
+        {},
+        "noise probability per block, overriding p_weight (matrices) or p_param (vectors) for "
+        "the blocks named; {} = the SPEC §2.4 probabilities",
+    )
 
     def validate(self) -> None:
         for key in ("p_struct", "p_weight", "p_param"):
             _check_range(key, getattr(self, key), 0.0, 1.0)
         _check_range("sigma", self.sigma, 0.0)
         _check_range("struct_std", self.struct_std, 0.0)
+        for section, hi in (("block_sigma", None), ("block_p", 1.0)):
+            for block, value in getattr(self, section).items():
+                if block not in GENOME_BLOCKS:
+                    raise ConfigError(
+                        f"mutation.{section} has unknown block {block!r}; "
+                        f"use one of {list(GENOME_BLOCKS)}"
+                    )
+                if not isinstance(value, (int, float)) or isinstance(value, bool):
+                    raise ConfigError(f"mutation.{section}.{block}={value!r} must be a number")
+                _check_range(f"mutation.{section}.{block}", float(value), 0.0, hi)
+
+    def sigma_of(self, block: str) -> float:
+        """The noise std of one genome block (``block_sigma`` or ``sigma``)."""
+        return float(self.block_sigma.get(block, self.sigma))
+
+    def p_of(self, block: str) -> float:
+        """The noise probability of one genome block (``block_p``, else p_weight / p_param)."""
+        default = self.p_param if block in ("theta", "delta", "alpha") else self.p_weight
+        return float(self.block_p.get(block, default))
 
 
 @dataclass

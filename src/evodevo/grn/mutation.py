@@ -7,6 +7,9 @@
   ``dense_regulatory_noise`` reproduces the thesis' dense noise;
 * parameter, ``p_param`` per vector (theta, delta, alpha): add N(0, sigma²), clip to the bounds.
 
+``block_sigma`` and ``block_p`` override sigma and the probabilities for named blocks (ours, not
+the thesis'; empty by default, which draws the same numbers as before).
+
 >>> import numpy as np
 >>> from evodevo.grn.config import GrnConfig
 >>> from evodevo.grn.genome import init_genome
@@ -59,9 +62,9 @@ def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> G
                 value = float(rng.normal(0.0, m.struct_std)) if m.struct_std > 0 else 1e-3
             child.W_r[k, i] = value
     for name in _WEIGHT_MATRICES:
-        if rng.random() < m.p_weight:
+        if rng.random() < m.p_of(name):
             w = getattr(child, name)
-            noise = rng.normal(0.0, m.sigma, w.shape)
+            noise = rng.normal(0.0, m.sigma_of(name), w.shape)
             if name == "W_r" and not m.dense_regulatory_noise:
                 present = w != 0.0
                 w[present] += noise[present]
@@ -70,7 +73,7 @@ def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> G
             else:
                 w += noise
     for name in _PARAMETERS:
-        if rng.random() < m.p_param:
+        if rng.random() < m.p_of(name):
             v = getattr(child, name)
-            v += rng.normal(0.0, m.sigma, v.shape)
+            v += rng.normal(0.0, m.sigma_of(name), v.shape)
     return clip_to_bounds(child, config)
