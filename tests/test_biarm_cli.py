@@ -154,6 +154,12 @@ def test_compare_and_report(tmp_path, tiny_cfg):
     (out / "table_3_5.md").unlink()
     _ok(["report", str(out), "--no-figures"])
     assert "Retention" in (out / "table_3_5.md").read_text()
+    # a run without its module log (runs taken over from a sweep's lanes): Fig. 3.5 is drawn
+    # from the next modulated run that has one, and the report does not stop
+    (out / "runs" / "biarm__s0" / "neuromod.csv").unlink()
+    (out / "fig_3_5_Acrobot-v1.png").unlink()
+    _ok(["report", str(out)])
+    assert (out / "fig_3_5_Acrobot-v1.png").stat().st_size > 1000
     text = _ok(["contrast", "--runs", f"a={out},b={out}", "--variant", "pnn"])
     assert "| CartPole-v1 |" in text and "seeds 0-1" in text
     _fails(["contrast", "--runs", f"a{out}"], EvodevoError, "label=DIR")

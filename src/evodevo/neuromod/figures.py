@@ -176,9 +176,14 @@ def draw_all(root: str | Path, runs: dict[str, dict[int, dict[str, Any]]]) -> li
     """Every figure of the grid in ``root``; returns the file names."""
     root = Path(root)
     names = [learning_curves(root, runs), ablation_bars(root, runs)]
+    # Fig. 3.5 from the first modulated run (in this order) whose module log was kept: the runs
+    # that the grid took over from a sweep's lanes may lack neuromod.csv.
     for v in ("biarm", "no-da", "no-5ht", "no-ne", "no-ach"):
-        if v in runs:
-            seed = min(runs[v])
+        logged = [
+            s for s in sorted(runs.get(v, {})) if (_folder(root, v, s) / "neuromod.csv").is_file()
+        ]
+        if logged:
+            seed = logged[0]
             names += neuromod_dynamics(_folder(root, v, seed), root, f"({v}, seed {seed})")
             break
     return names
