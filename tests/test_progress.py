@@ -86,3 +86,24 @@ def test_biarm_sweep_shows_a_bar_over_its_runs(tmp_path):
     assert "trained 1 run(s)" in res.stdout
     quiet = runner.invoke(app, [*args, "--quiet"])
     assert quiet.exit_code == 0 and quiet.stderr == ""
+
+
+def test_progress_into_a_log_prints_plain_lines(capsys, monkeypatch):
+    """Not on a terminal (nohup, the steps of `evodevo reproduce`), Rich shows no live bar, so
+    every item also gets a plain line with the ETA (throttled; the last item always prints)."""
+    from evodevo import progress
+    from evodevo.progress import CommandProgress
+
+    with CommandProgress("training runs"), WorkerPool(1) as pool:
+        pool.map(_square, range(3))
+    err = capsys.readouterr().err
+    assert "training runs (part 1): 1/3 done" in err  # the first line is due at once
+    assert "training runs (part 1): 3/3 done" in err and "ETA 0:00:00" in err
+    assert "2/3 done" not in err  # within 30 s of the previous line
+    monkeypatch.setattr(progress, "PLAIN_EVERY_S", 0.0)
+    with CommandProgress("training runs"), WorkerPool(1) as pool:
+        pool.map(_square, range(3))
+    assert "training runs (part 1): 2/3 done" in capsys.readouterr().err
+    with CommandProgress("training runs", quiet=True), WorkerPool(1) as pool:
+        pool.map(_square, range(3))
+    assert capsys.readouterr().err == ""

@@ -14,13 +14,22 @@ stdout, untouched.
 
 from __future__ import annotations
 
+import math
 import sys
+import time
 from collections.abc import Callable
 from typing import Any
 
 from evodevo.parallel import report_progress
 
-__all__ = ["CommandProgress", "GenerationBar", "TrainingBar", "StepBar", "generation_line"]
+__all__ = [
+    "CommandProgress",
+    "GenerationBar",
+    "TrainingBar",
+    "StepBar",
+    "generation_line",
+    "plain_line",
+]
 
 
 def _columns() -> list[Any]:
@@ -65,6 +74,8 @@ class CommandProgress:
         self._task: Any = None
         self._phase = 0
         self._guard: Any = None
+        self._plain = False
+        self._phase_start = self._last_line = time.monotonic()
 
     def __enter__(self) -> CommandProgress:
         if self.quiet:
@@ -75,7 +86,12 @@ class CommandProgress:
         from rich.console import Console
         from rich.progress import Progress
 
-        self.progress = Progress(*_columns(), console=Console(file=sys.stderr))
+        console = Console(file=sys.stderr)
+        # Rich draws a live bar only on a terminal; into a log file or a pipe (nohup, the
+        # steps of `evodevo reproduce`) it would show nothing until the end, so there the
+        # items also get a plain line each (at most one per PLAIN_EVERY_S seconds).
+        self._plain = not console.is_terminal
+        self.progress = Progress(*_columns(), console=console)
         self.progress.start()
         self._guard = report_progress(self._on_map)
         self._guard.__enter__()
@@ -101,8 +117,15 @@ class CommandProgress:
                 self._task = self.progress.add_task(label, total=total)
             else:
                 self.progress.reset(self._task, total=total, description=label)
+            self._phase_start = time.monotonic()
+            self._last_line = -math.inf  # the phase's first item prints at once
             return
         self.progress.update(self._task, completed=done)
+        now = time.monotonic()
+        if self._plain and (done == total or now - self._last_line >= PLAIN_EVERY_S):
+            self._last_line = now
+            self.print(plain_line(f"{self.description} (part {self._phase})", done, total,
+                                  now - self._phase_start))  # fmt: skip
 
     def print(self, text: str) -> None:
         """A line above the bars (or on stderr when there are none and not quiet)."""
@@ -114,10 +137,27 @@ class CommandProgress:
             print(text, file=sys.stderr, flush=True)
 
 
+PLAIN_EVERY_S = 30.0
+"""Least seconds between two plain progress lines of one phase (the last item always prints)."""
+
+
+def _hms(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+def plain_line(label: str, done: int, total: int, elapsed_s: float) -> str:
+    """One progress line for logs, with the ETA of the phase from its mean time per item.
+
+    >>> plain_line("training runs (part 1)", 3, 12, 1800.0)
+    'training runs (part 1): 3/12 done, 0:30:00 elapsed, ETA 1:30:00'
+    """
+    eta_text = _hms(elapsed_s / done * (total - done)) if done > 0 else "?"
+    return f"{label}: {done}/{total} done, {_hms(elapsed_s)} elapsed, ETA {eta_text}"
+
+
 def generation_line(record: Any, generations: int) -> str:
     """The per-generation progress line (best/mean fitness, success, connections, speed)."""
-    import math
-
     r = record
     retest = "" if math.isnan(r.retest_success) else f" retest {r.retest_success:.2f}"
     return (

@@ -349,12 +349,14 @@ def run_step(step: Step, log_dir: Path, echo: bool = True) -> None:
     last = ""
     with log_path.open("w") as log:
         log.write("$ evodevo " + " ".join(argv) + "\n")
+        log.flush()  # the log is read while the step runs (tail -f)
         proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1
         )
         assert proc.stdout is not None
         for line in proc.stdout:
             log.write(line)
+            log.flush()
             if echo:
                 sys.stdout.write("  " + line)
                 sys.stdout.flush()
