@@ -103,19 +103,16 @@ def evolve(over: dict[str, Any], seed: int) -> tuple[float, float]:
     return round(float(np.median(dt)) * 100, 2), round(float(p_success(dt).mean()), 3)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("rows", nargs="*", help="row names (default: all)")
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--first-seed", type=int, default=0)
-    args = ap.parse_args()
+def run_rows(
+    rows: dict[str, dict[str, Any]], names: list[str], evolve_fn: Any, seeds: range, out: Path
+) -> None:
+    """Print one Markdown row per name (``evolve_fn(row, seed)`` → (median cm, expected
+    success) per seed) and append it to the JSON lines file ``out``."""
     print("| variant | median final distance per seed (cm) | mean | expected success, mean |")
     print("|---|---|---|---|")
-    out = Path(__file__).with_name("noisy_surrogate.jsonl")
-    for name in args.rows or list(ROWS):
+    for name in names or list(rows):
         t0 = time.time()
-        seeds = range(args.first_seed, args.first_seed + args.seeds)
-        res = [evolve(ROWS[name], s) for s in seeds]
+        res = [evolve_fn(rows[name], s) for s in seeds]
         med, ps = [r[0] for r in res], [r[1] for r in res]
         print(
             f"| {name} | {', '.join(f'{m:.2f}' for m in med)} | {np.mean(med):.2f} | "
@@ -125,6 +122,22 @@ def main() -> None:
         with open(out, "a") as fh:
             fh.write(json.dumps({"row": name, "seeds": list(seeds), "median_cm": med, "p_success": ps,
                                  "s": round(time.time() - t0)}) + "\n")  # fmt: skip
+
+
+def rows_cli(
+    doc: str, rows: dict[str, dict[str, Any]], evolve_fn: Any, out: Path, seeds: int, first: int
+) -> None:
+    """The command line of a surrogate script: ``[ROW ...] [--seeds N] [--first-seed S]``."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("rows", nargs="*", help="row names (default: all)")
+    ap.add_argument("--seeds", type=int, default=seeds)
+    ap.add_argument("--first-seed", type=int, default=first)
+    args = ap.parse_args()
+    run_rows(rows, args.rows, evolve_fn, range(args.first_seed, args.first_seed + args.seeds), out)
+
+
+def main() -> None:
+    rows_cli(__doc__, ROWS, evolve, Path(__file__).with_name("noisy_surrogate.jsonl"), 10, 0)
 
 
 if __name__ == "__main__":

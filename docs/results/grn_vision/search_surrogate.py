@@ -116,11 +116,20 @@ def distance_score(
     return -np.minimum(reach(ctrl, pop, targets), 0.2).mean(1) / 0.05
 
 
+def mutation_only(ctrl: Any, pop: list[Any], fit: np.ndarray, evo: Any, rng: Any) -> list[Any]:
+    """Algorithm 3's offspring: mutated copies of tournament-picked parents."""
+    return [
+        ctrl.mutate(pop[tournament(fit, evo.tournament, rng)], rng)
+        for _ in range(evo.population - evo.elites)
+    ]
+
+
 def evolve_best(
-    over: dict[str, Any], seed: int, score: Any = distance_score
+    over: dict[str, Any], seed: int, score: Any = distance_score, breed: Any = mutation_only
 ) -> tuple[Any, Any, np.ndarray]:
     """Evolve with preset + ``over`` scored by ``score(cfg, ctrl, pop, targets, rng)`` (``rng``
-    the generator the targets came from); (controller, last generation's best, 100 test targets)."""
+    the generator the targets came from), offspring from ``breed(ctrl, pop, fit, evo, rng)``;
+    (controller, last generation's best, 100 test targets)."""
     cfg = load_config(GrnConfig, None, _merge(vision_preset(), copy.deepcopy(over)))
     ctrl = PlainGrnController(cfg, 3)
     evo = cfg.evolution
@@ -137,11 +146,7 @@ def evolve_best(
         fit = score(cfg, ctrl, pop, targets, trng)
         order = rank(fit)
         best = pop[int(order[0])]
-        children = [
-            ctrl.mutate(pop[tournament(fit, evo.tournament, rng)], rng)
-            for _ in range(evo.population - evo.elites)
-        ]
-        pop = [pop[i] for i in order[: evo.elites]] + children
+        pop = [pop[i] for i in order[: evo.elites]] + breed(ctrl, pop, fit, evo, rng)
     return ctrl, best, test
 
 
