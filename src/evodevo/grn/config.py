@@ -21,8 +21,12 @@ from evodevo.errors import ConfigError
 
 DISTANCE_AT = ("end", "grasp")
 """Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
-GENOME_BLOCKS = ("W_s", "W_r", "W_m", "P", "theta", "delta", "alpha")
-"""The blocks of a plain GRN genome that weight and parameter mutation perturb (SPEC §2.3)."""
+WEIGHT_BLOCKS = ("W_s", "W_r", "W_m", "P")
+"""The matrices of a plain GRN genome that weight mutation perturbs (SPEC §2.3, §2.4)."""
+PARAMETER_BLOCKS = ("theta", "delta", "alpha")
+"""The vectors of a plain GRN genome that parameter mutation perturbs (SPEC §2.3, §2.4)."""
+GENOME_BLOCKS = WEIGHT_BLOCKS + PARAMETER_BLOCKS
+"""Every block that ``mutation.block_sigma`` and ``mutation.block_p`` may name."""
 KEEP = ("last", "record")
 """Values of ``evolution.keep``: which genome an evolution returns."""
 DISTANCE_TO = ("nearest", "target")
@@ -44,6 +48,8 @@ __all__ = [
     "DISTANCE_TO",
     "KEEP",
     "GENOME_BLOCKS",
+    "PARAMETER_BLOCKS",
+    "WEIGHT_BLOCKS",
 ]
 
 
@@ -208,7 +214,7 @@ class MutationConfig:
 
     def p_of(self, block: str) -> float:
         """The noise probability of one genome block (``block_p``, else p_weight / p_param)."""
-        default = self.p_param if block in ("theta", "delta", "alpha") else self.p_weight
+        default = self.p_param if block in PARAMETER_BLOCKS else self.p_weight
         return float(self.block_p.get(block, default))
 
 

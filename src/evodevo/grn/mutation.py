@@ -25,17 +25,15 @@ from typing import Any
 
 import numpy as np
 
+from evodevo.grn.config import PARAMETER_BLOCKS, WEIGHT_BLOCKS
 from evodevo.grn.genome import GrnGenome
 
 __all__ = ["mutate_genome", "clip_to_bounds"]
 
-_WEIGHT_MATRICES = ("W_s", "W_r", "W_m", "P")
-_PARAMETERS = ("theta", "delta", "alpha")
-
 
 def clip_to_bounds(genome: GrnGenome, config: Any) -> GrnGenome:
     """Clip theta, delta and alpha to their bounds (in place); returns ``genome``."""
-    for name in _PARAMETERS:
+    for name in PARAMETER_BLOCKS:
         lo, hi = getattr(config.genome, f"{name}_bounds")
         np.clip(getattr(genome, name), lo, hi, out=getattr(genome, name))
     return genome
@@ -61,7 +59,7 @@ def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> G
             while value == 0.0:  # a new connection must exist (N(0, s²) is 0 with probability 0)
                 value = float(rng.normal(0.0, m.struct_std)) if m.struct_std > 0 else 1e-3
             child.W_r[k, i] = value
-    for name in _WEIGHT_MATRICES:
+    for name in WEIGHT_BLOCKS:
         if rng.random() < m.p_of(name):
             w = getattr(child, name)
             noise = rng.normal(0.0, m.sigma_of(name), w.shape)
@@ -72,7 +70,7 @@ def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> G
                 w[present & (w == 0.0)] = np.finfo(float).tiny
             else:
                 w += noise
-    for name in _PARAMETERS:
+    for name in PARAMETER_BLOCKS:
         if rng.random() < m.p_of(name):
             v = getattr(child, name)
             v += rng.normal(0.0, m.sigma_of(name), v.shape)
