@@ -155,6 +155,24 @@ def test_markdown_to_html_inlines_images(tmp_path):
     assert "<li>item</li>" in html
 
 
+def test_markdown_to_html_links_figures_past_the_inline_budget(tmp_path):
+    import base64
+
+    png = base64.b64decode(
+        "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNkYPhfDwAChwGA60e6kgAAAABJRU5ErkJggg=="
+    )
+    (tmp_path / "figs").mkdir()
+    for name in ("a", "b", "c"):
+        (tmp_path / "figs" / f"{name}.png").write_bytes(png)
+    md = "![a](figs/a.png)\n![b](figs/b.png)\n![c](figs/c.png)\n"
+    one = len(base64.b64encode(png))
+    html = markdown_to_html(md, tmp_path, inline_budget=2 * one)
+    assert html.count("data:image/png;base64,") == 2
+    assert '<img alt="c" src="figs/c.png">' in html and "1 figure(s) past" in html
+    assert "figure(s) past" not in markdown_to_html(md, tmp_path, inline_budget=3 * one)
+    assert markdown_to_html(md, tmp_path, inline_budget=0).count("base64,") == 0
+
+
 def test_failed_step_is_a_clear_error(tmp_path):
     step = Step(
         "bad",

@@ -1,5 +1,9 @@
-"""The reports' Markdown as one self-contained HTML file: headings, tables, lists, and the
-PNG figures inlined as data URIs (so ``report.html`` can be sent or opened on its own)."""
+"""The reports' Markdown as one HTML file: headings, tables, lists, and the PNG figures inlined
+as data URIs (so ``report.html`` can be sent or opened on its own).
+
+Figures are inlined until their encoded size reaches ``inline_budget`` bytes (4 MB by default,
+so a report with many grids stays a file that a repository and an e-mail accept); the figures
+past the budget are linked by their path relative to the report, and the page says how many."""
 
 from __future__ import annotations
 
@@ -8,7 +12,10 @@ import html
 import re
 from pathlib import Path
 
-__all__ = ["markdown_to_html"]
+__all__ = ["INLINE_BUDGET_BYTES", "markdown_to_html"]
+
+INLINE_BUDGET_BYTES = 4_000_000
+"""Default cap on the base64 bytes of inlined figures in one HTML report."""
 
 _IMG = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
 
@@ -19,8 +26,14 @@ def _inline(text: str) -> str:
     return re.sub(r"`([^`]+)`", r"<code>\1</code>", t)
 
 
-def markdown_to_html(md: str, base: Path) -> str:
-    """HTML for the Markdown subset the reports use (headings, tables, lists, images inline)."""
+def markdown_to_html(md: str, base: Path, inline_budget: int = INLINE_BUDGET_BYTES) -> str:
+    """HTML for the Markdown subset the reports use (headings, tables, lists, images).
+
+    Images are inlined in document order while the sum of their base64 sizes stays within
+    ``inline_budget`` bytes; later ones are linked (``src`` relative to ``base``).
+    """
+    if inline_budget < 0:
+        raise ValueError(f"inline_budget must be >= 0 bytes, got {inline_budget}")
     out = [
         '<!doctype html><meta charset="utf-8"><title>evodevo report</title>',
         "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
@@ -29,6 +42,8 @@ def markdown_to_html(md: str, base: Path) -> str:
     ]
     table: list[list[str]] = []
     in_list = False
+    inlined = 0
+    linked = 0
 
     def flush_table() -> None:
         if table:
@@ -56,10 +71,15 @@ def markdown_to_html(md: str, base: Path) -> str:
         if m:
             p = base / m.group(2)
             if p.is_file():
+                alt = html.escape(m.group(1))
                 data = base64.b64encode(p.read_bytes()).decode()
-                out.append(
-                    f'<p><img alt="{html.escape(m.group(1))}" src="data:image/png;base64,{data}"></p>'
-                )
+                if inlined + len(data) <= inline_budget:
+                    inlined += len(data)
+                    out.append(f'<p><img alt="{alt}" src="data:image/png;base64,{data}"></p>')
+                else:
+                    linked += 1
+                    src = html.escape(m.group(2), quote=True)
+                    out.append(f'<p><a href="{src}"><img alt="{alt}" src="{src}"></a></p>')
             continue
         if s.startswith("#"):
             level = len(s) - len(s.lstrip("#"))
@@ -74,4 +94,9 @@ def markdown_to_html(md: str, base: Path) -> str:
     flush_table()
     if in_list:
         out.append("</ul>")
+    if linked:
+        out.append(
+            f"<p><i>{linked} figure(s) past the {inline_budget / 1e6:.1f} MB inline budget are "
+            "linked, not embedded: open this file from its folder to see them.</i></p>"
+        )
     return "\n".join(out) + "\n"
