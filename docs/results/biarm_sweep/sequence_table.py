@@ -7,6 +7,11 @@ task on the 20 evaluation seeds, the MountainCar training episodes that reached 
 (return > −200, from ``metrics.csv``) and the run's CPU minutes (summed over resumed sessions
 when ``timing_complete``; else marked "≥"). Then per task: the mean over seeds of each variant,
 the thesis' Table 3.2, and BIARM − PNN paired by seed with the exact sign-flip test.
+
+    python docs/results/biarm_sweep/sequence_table.py docs/results/thesis/biarm_pertask --versus biarm
+
+adds a table of every variant's mean ± std per task and its difference from the ``--versus``
+variant, paired by seed (exact sign-flip p), for the ablations and the continual baselines.
 """
 
 from __future__ import annotations
@@ -31,7 +36,41 @@ def _flags(run: Path) -> int:
         )
 
 
-def main(grid: Path) -> None:
+def _mean_std(v: list[float]) -> str:
+    m = sum(v) / len(v)
+    sd = (sum((x - m) ** 2 for x in v) / (len(v) - 1)) ** 0.5 if len(v) > 1 else 0.0
+    return f"{m:.1f} ± {sd:.1f}"
+
+
+def versus_table(finals: dict[str, dict[int, dict[str, float]]], ref: str) -> None:
+    """Every variant's mean ± std per task, and its paired difference from ``ref``."""
+    if ref not in finals:
+        raise SystemExit(f"--versus {ref!r}: no finished run of that variant in the grid")
+    others = [v for v in finals if v != ref]
+    print()
+    print(f"| task | {ref} (n) | " + " | ".join(f"{v} (n; − {ref}, p)" for v in others) + " |")
+    print("|---" * (len(others) + 2) + "|")
+    for e in ENVS:
+        base = {k: r[e] for k, r in finals[ref].items() if e in r}
+        cells = [f"{_mean_std(list(base.values()))} ({len(base)})"]
+        for v in others:
+            runs = {k: r[e] for k, r in finals[v].items() if e in r}
+            if not runs:
+                cells.append("–")
+                continue
+            seeds = sorted(set(runs) & set(base))
+            cell = f"{_mean_std(list(runs.values()))} ({len(runs)}"
+            if len(seeds) >= 2:
+                d = sum(runs[k] - base[k] for k in seeds) / len(seeds)
+                p = permutation_test(
+                    [runs[k] for k in seeds], [base[k] for k in seeds], paired=True
+                )
+                cell += f"; {d:+.1f}, p = {p:.2g}"
+            cells.append(cell + ")")
+        print(f"| {e} | " + " | ".join(cells) + " |")
+
+
+def main(grid: Path, versus: str | None = None) -> None:
     finals: dict[str, dict[int, dict[str, float]]] = {}
     print(
         "| run | " + " | ".join(e.split("-")[0] for e in ENVS) + " | MountainCar flags | CPU min |"
@@ -68,7 +107,15 @@ def main(grid: Path) -> None:
             return f"{sum(v.values()) / len(v):.1f} ({len(v)})" if v else "–"
 
         print(f"| {e} | {mean(pnn)} | {mean(bi)} | {thesis} | {diff} |")
+    if versus:
+        versus_table(finals, versus)
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1] if len(sys.argv) > 1 else "docs/results/thesis/biarm_scaled"))
+    args = sys.argv[1:]
+    ref = None
+    if "--versus" in args:
+        i = args.index("--versus")
+        ref = args[i + 1]
+        del args[i : i + 2]
+    main(Path(args[0] if args else "docs/results/thesis/biarm_scaled"), ref)
