@@ -664,3 +664,30 @@ def test_learning_curve_legend_covers_no_panel(tmp_path):
         assert not box.overlaps(ax.get_window_extent(renderer)), ax.get_title()
     assert (tmp_path / name).stat().st_size > 1000
     real_close(fig)
+
+
+def test_a_compare_step_is_done_only_when_its_grid_is(tmp_path):
+    """Tables drawn from a partial grid (`biarm report`) do not mark the compare step done."""
+    from evodevo.neuromod.compare import grid_progress, record_grid
+
+    grid = tmp_path / "grid"
+    step = Step("biarm-compare", ["biarm", "compare"], [grid / "table_3_2.md"])
+    (grid / "runs").mkdir(parents=True)
+    (grid / "table_3_2.md").write_text("partial\n")
+    assert step.done()  # a folder without grid.json: the table alone decides (older grids)
+    record_grid(grid, ["pnn__s0", "biarm__s0"])
+    record_grid(grid, ["biarm__s0", "pnn__s1"])  # a second call adds to the grid
+    assert json.loads((grid / "grid.json").read_text())["runs"] == [
+        "pnn__s0",
+        "biarm__s0",
+        "pnn__s1",
+    ]
+    assert grid_progress(grid) == (0, 3) and not step.done()
+    for name in ("pnn__s0", "biarm__s0"):
+        (grid / "runs" / name).mkdir()
+        (grid / "runs" / name / "summary.json").write_text("{}")
+    assert grid_progress(grid) == (2, 3) and not step.done()
+    (grid / "runs" / "pnn__s1").mkdir()
+    (grid / "runs" / "pnn__s1" / "summary.json").write_text("{}")
+    assert grid_progress(grid) == (3, 3) and step.done()
+    assert grid_progress(tmp_path) is None

@@ -392,9 +392,16 @@ def report(
     figures: bool = typer.Option(True, help="Also re-draw the figures."),
 ) -> None:
     """Re-draw tables and figures from the saved runs, without re-running anything."""
-    from evodevo.neuromod.compare import write_report
+    from evodevo.neuromod.compare import grid_progress, write_report
 
     typer.echo(f"wrote {write_report(out, figures=figures)}")
+    progress = grid_progress(out)
+    if progress and progress[0] < progress[1]:
+        typer.echo(
+            f"note: {progress[0]} of the grid's {progress[1]} runs have finished; the tables "
+            "cover those only (resume the rest with the same `evodevo biarm compare` call)",
+            err=True,
+        )
 
 
 @app.command("config")

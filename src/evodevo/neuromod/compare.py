@@ -15,6 +15,7 @@ directories.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,9 @@ from evodevo.runs import RunDir, atomic_write_text, read_json
 from evodevo.stats import summarise
 
 __all__ = [
+    "GRID_FILE",
+    "grid_progress",
+    "record_grid",
     "run_grid",
     "run_dir_name",
     "collect",
@@ -116,6 +120,7 @@ def run_grid(
     resolve_tasks(cfg)  # every input error before any worker starts
     root = Path(out)
     (root / "runs").mkdir(parents=True, exist_ok=True)
+    record_grid(root, [run_dir_name(v, s) for v in variants for s in seeds])
     cfg_dict = to_dict(cfg)
     items = []
     for v in variants:
@@ -128,6 +133,32 @@ def run_grid(
         return []
     with make_pool(backend, min(workers, len(items)), address=address) as pool:
         return list(pool.map(_run_item, items))
+
+
+GRID_FILE = "grid.json"
+"""``DIR/grid.json``: ``{"runs": [...]}``, every run folder ``biarm compare`` was asked for in
+this grid (the union over its calls). ``evodevo reproduce`` counts a compare step done only
+when each of them has a ``summary.json``, so tables drawn from a partial grid (``biarm
+report``) do not mark it finished."""
+
+
+def record_grid(root: Path, names: Sequence[str]) -> None:
+    """Add ``names`` to the runs requested in ``root/grid.json`` (see :data:`GRID_FILE`)."""
+    path = root / GRID_FILE
+    known: list[str] = list(read_json(path).get("runs", [])) if path.is_file() else []
+    runs = known + [n for n in names if n not in known]
+    if runs != known or not path.is_file():
+        atomic_write_text(path, json.dumps({"runs": runs}, indent=1) + "\n")
+
+
+def grid_progress(root: str | Path) -> tuple[int, int] | None:
+    """(finished, requested) runs of the grid in ``root``, or None without ``grid.json``."""
+    path = Path(root) / GRID_FILE
+    if not path.is_file():
+        return None
+    runs = read_json(path).get("runs", [])
+    done = sum((Path(root) / "runs" / n / "summary.json").is_file() for n in runs)
+    return done, len(runs)
 
 
 def collect(out: str | Path) -> dict[str, dict[int, dict[str, Any]]]:

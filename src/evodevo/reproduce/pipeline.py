@@ -46,8 +46,17 @@ class Step:
 
 
 def finished(path: Path) -> bool:
-    """False only for a ``summary.json`` that records ``"done": false`` (or, as NEAT runs
-    before the flag was added, ``"stopped_by": "running"``)."""
+    """False for a ``summary.json`` that records ``"done": false`` (or, as NEAT runs before
+    the flag was added, ``"stopped_by": "running"``), and for any output beside a
+    ``grid.json`` (``biarm compare``'s list of requested runs) while one of those runs has no
+    ``summary.json``: tables drawn from a partial grid by ``biarm report`` do not finish it."""
+    grid = path.parent / "grid.json"
+    if path.name != "summary.json" and grid.is_file():
+        try:
+            runs = json.loads(grid.read_text()).get("runs", [])
+        except (OSError, ValueError, AttributeError):
+            return False
+        return all((path.parent / "runs" / str(n) / "summary.json").is_file() for n in runs)
     if path.name != "summary.json":
         return True
     try:
