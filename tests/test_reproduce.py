@@ -171,6 +171,8 @@ def test_markdown_to_html_links_figures_past_the_inline_budget(tmp_path):
     assert '<img alt="c" src="figs/c.png">' in html and "1 figure(s) past" in html
     assert "figure(s) past" not in markdown_to_html(md, tmp_path, inline_budget=3 * one)
     assert markdown_to_html(md, tmp_path, inline_budget=0).count("base64,") == 0
+    with pytest.raises(ValueError, match="inline_budget"):
+        markdown_to_html(md, tmp_path, inline_budget=-1)
 
 
 def test_failed_step_is_a_clear_error(tmp_path):
