@@ -141,6 +141,31 @@ def test_report_values_from_fixture_runs(tmp_path):
     assert "<table>" in html and "80.0 %" in html
 
 
+def test_each_preset_is_compared_with_its_own_controls(tmp_path):
+    """The vision preset's GRN is pooled and paired with its own blind twin, never with the
+    thesis preset's runs (and the thesis GRN never with the vision preset's)."""
+    cfg = _fixture(tmp_path)
+    cfg.grn.controllers = ["plain", "vision"]
+    g = tmp_path / "grn"
+    vis = g / "vision_s0"
+    vis.mkdir()
+    noisy = _rate(27, 40) | {"episodes": 40, "clean": _rate(28, 40), "retention": 27 / 28}
+    noisy["baselines"] = {"zero": _rate(12, 40), "random": _rate(10, 40)}
+    (vis / "repro_test_noisy.json").write_text(json.dumps(noisy))
+    (vis / "summary.json").write_text(json.dumps({"generations_run": 15}))
+    (g / "vision_blind_s0").mkdir()
+    (g / "vision_blind_s0" / "repro_test_clean.json").write_text(
+        json.dumps(_rate(20, 40) | {"episodes": 40, "baselines": {}})
+    )
+    md = write_report(tmp_path, cfg).read_text()
+    assert "| GRN (plain, pooled over seeds) | 80.0 % [" in md  # 32/40, not 60/80
+    assert "| GRN (vision, pooled over seeds) | 70.0 % [" in md  # 28/40
+    thesis, vision = md.split("Controls evolved with the same budget (SPEC §2.5), the vision")
+    assert "blind GRN (no vision), seed 0" in thesis and "vision preset (no vision)" not in thesis
+    assert "vision preset (no vision), seed 0 | 50.0 % [" in vision
+    assert "best open-loop policy" not in vision.split("### Ablations")[0]
+
+
 def test_markdown_to_html_inlines_images(tmp_path):
     import base64
 
