@@ -236,7 +236,8 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "- The thesis tested on training objects over 40 episodes; we test on held-out objects "
         f"over {g.test_episodes} fixed-seed episodes, and show training objects separately.",
         "- Under the benchmark's height hack the arm descends and grasps by itself, so a do-nothing "
-        "policy already succeeds often; a controller's value is its margin over the rows above.",
+        "policy already succeeds often; a controller's value is its margin over the trivial "
+        "policies and the controls in the tables below.",
         "",
     ]
     # Each preset's GRN against its own controls (evolved with the same preset and budget) and
