@@ -15,7 +15,6 @@ directories.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -48,7 +47,7 @@ from evodevo.neuromod.tables import (
     table_markdown,
 )
 from evodevo.parallel import make_pool
-from evodevo.runs import RunDir, atomic_write_text, read_json
+from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
 from evodevo.stats import summarise
 
 __all__ = [
@@ -148,7 +147,7 @@ def record_grid(root: Path, names: Sequence[str]) -> None:
     known: list[str] = list(read_json(path).get("runs", [])) if path.is_file() else []
     runs = known + [n for n in names if n not in known]
     if runs != known or not path.is_file():
-        atomic_write_text(path, json.dumps({"runs": runs}, indent=1) + "\n")
+        write_json(path, {"runs": runs})
 
 
 def grid_progress(root: str | Path) -> tuple[int, int] | None:
