@@ -82,10 +82,13 @@ def main(grid: Path, versus: str | None = None) -> None:
         s = json.loads((run / "summary.json").read_text())
         by_env = {t["env_id"]: float(t["final_return"]) for t in s["tasks"]}
         finals.setdefault(s["variant"], {})[int(s["seed"])] = by_env
-        cpu = s["cpu_seconds"] / 60
-        mark = "" if s.get("timing_complete", False) else "≥ "
+        if "cpu_seconds" in s:
+            mark = "" if s.get("timing_complete", False) else "≥ "
+            cost = f"{mark}{s['cpu_seconds'] / 60:.1f}"
+        else:  # sb3-dqn's summary records wall time only
+            cost = f"{s['wall_seconds'] / 60:.1f} (wall)"
         cells = " | ".join(f"{by_env.get(e, float('nan')):.2f}" for e in ENVS)
-        print(f"| {run.name} | {cells} | {_flags(run)} of 800 | {mark}{cpu:.1f} |")
+        print(f"| {run.name} | {cells} | {_flags(run)} of 800 | {cost} |")
     print()
     print(
         "| task | PNN mean (n) | BIARM mean (n) | thesis PNN / BIARM | BIARM − PNN paired (p; seeds higher) |"
