@@ -276,6 +276,8 @@ def test_sb3_dqn_resume_after_a_finished_task_gives_the_same_run(tmp_path, tiny_
     progress["results"] = progress["results"][:1]
     progress["results"][0]["returns_after"] = progress["results"][0]["returns_after"][:1]
     progress["step"] = progress["results"][0]["end_step"]
+    assert progress["elapsed"]["timing_complete"] is True  # the time is saved with the progress
+    progress["elapsed"] = {"wall_seconds": 1000.0, "cpu_seconds": 500.0, "timing_complete": True}
     (part / "checkpoints" / "sb3_progress.json").write_text(json.dumps(progress))
     for name in ("sb3_task1.zip", "sb3_task2.zip"):
         (part / "checkpoints" / name).unlink()
@@ -291,6 +293,10 @@ def test_sb3_dqn_resume_after_a_finished_task_gives_the_same_run(tmp_path, tiny_
 
     assert strip(s_part) == strip(s_full)
     assert (part / "metrics.csv").read_text() == (full / "metrics.csv").read_text()
+    # the earlier session's time is added to this one's
+    assert 1000.0 < s_part["wall_seconds"] < 1000.0 + s_full["wall_seconds"] + 60.0
+    assert s_part["cpu_seconds"] > 500.0 and s_part["timing_complete"] is True
+    assert s_full["cpu_seconds"] > 0.0 and s_full["timing_complete"] is True
 
 
 def test_biarm_compare_accepts_the_new_variants(tmp_path, tiny_cfg):

@@ -43,7 +43,9 @@ Run files are those of :func:`evodevo.neuromod.trainer.train`: ``config.json``,
 ``summary.json`` with the same keys, plus ``checkpoints/sb3_task{i}.zip`` (SB3's own
 ``save``) and ``checkpoints/sb3_progress.json`` after every task. ``--resume`` continues after
 the last finished task; an interrupted task is re-run from its start, which gives the same
-numbers because each task is seeded on its own.
+numbers because each task is seeded on its own. The summary's ``wall_seconds`` and
+``cpu_seconds`` are summed over the sessions (:class:`evodevo.run_clock.RunClock`; the progress
+file carries them); runs written before the progress file did record wall time only.
 
 Seeding: SB3 draws from the global ``random``/NumPy/torch generators (exploration, replay
 sampling, initialisation) and seeds them itself (``seed=``). To keep library code free of
@@ -79,6 +81,7 @@ from evodevo.neuromod.keep_best import BestColumn
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.trainer import METRIC_FIELDS, NEUROMOD_FIELDS, EpisodeInfo, resume_hint
 from evodevo.neuromod.variants import Variant
+from evodevo.run_clock import RunClock
 from evodevo.runs import CsvAppender, RunDir, read_json, write_json
 from evodevo.seeding import derive
 from evodevo.signals import GracefulStop
@@ -375,9 +378,11 @@ def train_sb3_tasks(
         run.write_config({"variant": variant.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
     results: list[dict[str, Any]] = []
     step = 0
+    before = None  # the time of earlier sessions, for a resumed run
     if resume and progress_path.is_file():
         saved = read_json(progress_path)
         results, step = list(saved["results"]), int(saved["step"])
+        before = saved.get("elapsed", RunClock.UNKNOWN)  # older progress files lack it
         for name, fields in (("metrics.csv", METRIC_FIELDS), ("neuromod.csv", NEUROMOD_FIELDS)):
             _keep_rows(run, name, fields, len(results))
     else:
@@ -385,7 +390,7 @@ def train_sb3_tasks(
             (run / name).unlink(missing_ok=True)
     seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
     hint = resume_hint(run.path)
-    t_start = time.perf_counter()
+    elapsed = RunClock(before)
     with (
         CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
         CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
@@ -426,7 +431,7 @@ def train_sb3_tasks(
                     old = _load_model(run, j)
                     mean = float(np.mean(evaluate_model(old, specs[j], seeds)))
                     results[j]["returns_after"].append(mean)
-            write_json(progress_path, {"results": results, "step": step})
+            write_json(progress_path, {"results": results, "step": step, "elapsed": elapsed()})
             if stop is not None and i + 1 < len(specs):
                 stop.check(f"task {i} ({spec.env_id})", hint)
     tasks = []
@@ -452,7 +457,7 @@ def train_sb3_tasks(
         "eval_seeds": seeds,
         "tasks": tasks,
         "final_states": None,
-        "wall_seconds": time.perf_counter() - t_start,
+        **elapsed(),  # summed over resumed sessions; an interrupted task's time is not counted
         "sb3_version": stable_baselines3.__version__,
         **(
             {"sb3_double_q": False}

@@ -22,7 +22,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,6 +46,7 @@ from evodevo.neuromod.keep_best import VALIDATION_FIELDS, BestColumn
 from evodevo.neuromod.replay import ReplayBuffer
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.variants import Variant, get_variant
+from evodevo.run_clock import RunClock
 from evodevo.runs import CsvAppender, RunDir
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
@@ -433,11 +434,11 @@ def train(
     start = 0
     partial: dict[str, Any] | None = None
     # time spent before the resume point (checkpoints carry it; older ones do not)
-    before: dict[str, Any] = {"wall_seconds": 0.0, "cpu_seconds": 0.0, "timing_complete": True}
+    before: Mapping[str, Any] | None = None
     if resume and point is not None:
         ckpt = load_checkpoint(point.path)
         _check_payload(ckpt, point.path, var, seed)
-        before = dict(ckpt.get("elapsed", {**before, "timing_complete": False}))
+        before = ckpt.get("elapsed", RunClock.UNKNOWN)
         results = list(ckpt["results"])
         step = int(ckpt["step"])
         if point.finished_task:
@@ -456,17 +457,7 @@ def train(
     seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
     every = cfg.checkpoint_every
     hint = resume_hint(run.path)
-    t_start = time.perf_counter()
-    cpu_start = time.process_time()  # this process only: robust to other jobs sharing cores
-
-    def elapsed() -> dict[str, Any]:
-        """Wall and CPU seconds of the run so far, summed over the sessions that resumed it
-        (the work after the newest checkpoint of a killed session is not counted: it is redone)."""
-        return {
-            "wall_seconds": before["wall_seconds"] + time.perf_counter() - t_start,
-            "cpu_seconds": before["cpu_seconds"] + time.process_time() - cpu_start,
-            "timing_complete": bool(before["timing_complete"]),
-        }
+    elapsed = RunClock(before)
 
     with (
         CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
