@@ -45,7 +45,7 @@ Run files are those of :func:`evodevo.neuromod.trainer.train`: ``config.json``,
 the last finished task; an interrupted task is re-run from its start, which gives the same
 numbers because each task is seeded on its own. The summary's ``wall_seconds`` and
 ``cpu_seconds`` are summed over the sessions (:class:`evodevo.run_clock.RunClock`; the progress
-file carries them); runs written before the progress file did record wall time only.
+file carries them); summaries written before 2026-12-06 hold the wall time only.
 
 Seeding: SB3 draws from the global ``random``/NumPy/torch generators (exploration, replay
 sampling, initialisation) and seeds them itself (``seed=``). To keep library code free of
