@@ -28,7 +28,7 @@ from evodevo.neuromod.tables import (
 )
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.biarm_protocols import grids, protocol_table
-from evodevo.reproduce.budget import ReproduceConfig, preset
+from evodevo.reproduce.budget import GrnBudget, ReproduceConfig, preset
 from evodevo.reproduce.html_report import markdown_to_html
 from evodevo.reproduce.kuka_report import kuka_section
 from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
@@ -283,7 +283,7 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
 
 
 def _controls_block(
-    gdir: Path, g: Any, grn: str, specs: list[tuple[str, str]], heading: str
+    gdir: Path, g: GrnBudget, grn: str, specs: list[tuple[str, str]], heading: str
 ) -> list[str]:
     """The controls table of one GRN controller (``grn``: its seeds' clean tests pooled, and
     paired per seed with each control on the same test episodes), then one verdict per
