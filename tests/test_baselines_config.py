@@ -9,6 +9,7 @@ import pytest
 from evodevo.baselines.kuka_config import CONTROLLERS, METHODS, KukaBaselineConfig
 from evodevo.config import load_config, to_dict
 from evodevo.errors import ConfigError
+from evodevo.seed_split import TEST_SEED
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,7 +38,7 @@ def test_each_method_evaluates_with_the_grn_test_seeds(method):
     cfg = KukaBaselineConfig(method=method)
     ev = cfg.evaluator_config()
     assert ev.controller == CONTROLLERS[method] and ":" in ev.controller
-    assert ev.evaluation.test_seed == 10_000 and ev.env.kwargs == {"max_steps": 8}
+    assert ev.evaluation.test_seed == TEST_SEED and ev.env.kwargs == {"max_steps": 8}
 
 
 @pytest.mark.parametrize(

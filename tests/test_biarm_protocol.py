@@ -265,7 +265,11 @@ def test_per_task_override_from_the_command_line():
         ({"dqn": {"tau": 1.5}}, ("dqn.tau=1.5", "(0, 1]")),
         ({"dqn": {"train_every": 0}}, ("dqn.train_every=0",)),
         ({"eval": {"validation_episodes": 0}}, ("eval.validation_episodes=0",)),
-        ({"eval": {"validation_seed": 10_010}}, ("eval.validation_seed=10010", "overlap")),
+        ({"eval": {"validation_seed": 1_000_010}}, ("eval.validation_seed=1000010", "test range")),
+        (
+            {"eval": {"seed": 10_000, "validation_seed": 10_010}},
+            ("eval.validation_seed=10010", "overlap"),
+        ),
         ({"dqn": {"per_task": {"CartPole-v1": {"clip": 1}}}}, ("dqn.per_task.CartPole-v1.clip",)),
         (
             {"dqn": {"per_task": {"CartPole-v1": {"grad_clip": -1}}}},
@@ -329,7 +333,8 @@ def test_v1_preset_reproduces_the_first_protocol_bit_for_bit(tmp_path, variant):
             {"env_id": "Acrobot-v1", "episodes": 2, "max_steps": 100},
         ],
         "checkpoint_every": 0,
-        "eval": {"episodes": 2},
+        # the evaluation seeds of the reference (validation seeds since the split, SPEC §6)
+        "eval": {"episodes": 2, "seed": 10_000},
         "dqn": {"target_update": 25, "learning_starts": 32},
     }
     from evodevo.neuromod.protocols import apply_protocol

@@ -616,7 +616,8 @@ def test_report_from_a_tiny_grid_lists_every_ablation_pair_and_states_its_budget
     assert section.count("Budget:") == 1 and section.count("Machine:") == 1
     top = section.split("###")[0]
     assert "seeds 0-2 (3 per variant)" in top and "Machine: " in top and "CPUs" in top
-    assert "(seeds 10000..10001)" in top and "module learning `fixed`" in top
+    assert "(seeds 10000..10001: the validation range, SPEC §6)" in top
+    assert "module learning `fixed`" in top
     assert "{'" not in section and "[0, 1, 2]" not in section
     # each table: a heading, then one line of caption, then the table
     lines = section.splitlines()

@@ -36,7 +36,10 @@ def renamed(old: str, new: str, old_value: Any, new_value: Any) -> Any:
 
 #: Help of the test options shared by ``evaluate``, ``baselines`` and ``ablate``.
 TEST_EPISODES_HELP = "Test episodes [40 = evaluation.test_episodes of the config]."
-TEST_SEED_HELP = "Seed of the fixed test episodes [10000 = evaluation.test_seed of the config]."
+TEST_SEED_HELP = (
+    "Seed of the fixed test episodes [1000000 = evaluation.test_seed of the config: the locked "
+    "test range 1000000..1999999; 10000..999999 are validation seeds, SPEC §6]."
+)
 OLD_EPISODES_HELP = "Deprecated name of --test-episodes."
 OLD_SEED_HELP = "Deprecated name of --test-seed."
 
@@ -159,8 +162,8 @@ def add_evaluate_command(
             return
         name = label if label is not None else str(res["controller"])
         typer.echo(
-            f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']}, "
-            f"noise {noise:g}"
+            f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']} "
+            f"({res.get('seed_range', 'test')} range, SPEC §6), noise {noise:g}"
         )
         typer.echo(format_rate(name, res))
         if "clean" in res:

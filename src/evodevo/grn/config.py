@@ -18,6 +18,7 @@ from typing import Any
 
 from evodevo.config import doc
 from evodevo.errors import ConfigError
+from evodevo.seed_split import TEST_SEED
 
 DISTANCE_AT = ("end", "grasp")
 """Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
@@ -292,7 +293,11 @@ class EvaluationConfig:
         0.03, "std of the noise added to the visual features of noisy episodes"
     )
     test_episodes: int = doc(40, "episodes of the test (fixed seeds)")
-    test_seed: int = doc(10_000, "seed of the fixed test episodes (independent of the run seed)")
+    test_seed: int = doc(
+        TEST_SEED,
+        "seed of the fixed test episodes (independent of the run seed); 1000000.. is the "
+        "locked test range, 10000..999999 validation (SPEC §6)",
+    )
     lockstep: int = doc(4, "episodes one worker steps together (one encoder batch per env step)")
     dedupe: bool = doc(
         True,

@@ -27,6 +27,7 @@ from evodevo.grn.encoder import Encoder
 from evodevo.grn.evaluator import Episode, EpisodeResults, Evaluator
 from evodevo.grn.frontends import load_frontend
 from evodevo.runs import RunDir, machine_info, write_json
+from evodevo.seed_split import range_label
 from evodevo.seeding import derive
 from evodevo.stats import rate
 
@@ -182,6 +183,7 @@ def evaluate_run(
         "objects": objects,
         "noise": float(noise),
         "test_seed": test_seed,
+        "seed_range": range_label(test_seed),
         "controller": loaded.kind,
         "blind": cfg.sensors.blind,
         "mean_steps": float(main.steps.mean()),

@@ -81,7 +81,8 @@ class BiarmAgent:
                 learn_context=cfg.modules.learn_context_weights,
                 lateral_kernel=cfg.network.lateral_kernel,
                 lateral_init=cfg.network.lateral_init,
-                lateral_scale=cfg.network.lateral_scale,
+                # the single-task reference reads nothing from earlier columns (SPEC §6)
+                lateral_scale=cfg.network.lateral_scale if variant.lateral else 0.0,
             )
         else:
             raise ValueError(

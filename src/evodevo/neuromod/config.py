@@ -21,6 +21,7 @@ from typing import Any, Literal
 
 from evodevo.config import doc, from_dict, replace, to_dict
 from evodevo.errors import ConfigError
+from evodevo.seed_split import TEST_SEED, VALIDATION_SEED, range_label, require_selection
 
 __all__ = [
     "TaskConfig",
@@ -280,11 +281,16 @@ class ModuleConfig:
 
 @dataclass
 class EvalConfig:
-    """Greedy evaluation (SPEC §1.7) and the validation that ``dqn.keep: best`` selects on
-    (SPEC §1.6), on seeds disjoint from the evaluation seeds."""
+    """Greedy evaluation (SPEC §1.7) on the locked test range, and the validation that
+    ``dqn.keep: best`` selects on (SPEC §1.6) on the validation range (SPEC §6,
+    :mod:`evodevo.seed_split`)."""
 
     episodes: int = doc(20, "greedy evaluation episodes per column")
-    seed: int = doc(10_000, "first evaluation seed; episode j uses seed + j (same for all runs)")
+    seed: int = doc(
+        TEST_SEED,
+        "first evaluation seed; episode j uses seed + j (same for all runs); 1000000.. is the "
+        "locked test range, 10000..999999 validation (SPEC §6)",
+    )
     validation_episodes: int = doc(
         20, "greedy validation episodes per check (dqn.keep: best); seeds validation_seed + j"
     )
@@ -292,7 +298,8 @@ class EvalConfig:
         25, "training episodes between validation checks (and one after the last episode)"
     )
     validation_seed: int = doc(
-        20_000, "first validation seed; must not overlap the evaluation seeds"
+        VALIDATION_SEED,
+        "first validation seed; in the validation range 10000..999999, never the test range",
     )
 
     def validate(self) -> None:
@@ -304,6 +311,7 @@ class EvalConfig:
             )
         if self.validation_every < 1:
             raise ConfigError(f"eval.validation_every={self.validation_every} must be at least 1")
+        require_selection(self.validation_seed, self.validation_episodes, "eval.validation_seed")
         lo, hi = self.seed, self.seed + self.episodes
         vlo, vhi = self.validation_seed, self.validation_seed + self.validation_episodes
         if vlo < hi and lo < vhi:
@@ -312,6 +320,11 @@ class EvalConfig:
                 f"{vlo}..{vhi - 1}, which overlap the evaluation seeds {lo}..{hi - 1}; "
                 "choose a validation_seed outside them (selection must never see the test)"
             )
+
+    @property
+    def seed_range(self) -> str:
+        """The range of the evaluation seeds (``"test"``, ``"validation"``; SPEC §6)."""
+        return range_label(self.seed, self.episodes)
 
 
 @dataclass

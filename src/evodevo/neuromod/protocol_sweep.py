@@ -8,7 +8,7 @@ run config (``configs/biarm_sweep.yaml``); :func:`run_sweep` trains every
 column) into ``OUT/{protocol}/{task}/{variant}__s{seed}/``, over a process pool, skipping
 finished runs and resuming interrupted ones; :func:`sweep_table` reads the saved summaries
 only and writes the table (final greedy return, mean ± std and bootstrap 95 % interval over
-seeds, on the §1.7 evaluation seeds) that ``docs/results/biarm.md`` shows.
+seeds, on validation seeds: the sweep chooses, so it never reads the locked test range) that ``docs/results/biarm.md`` shows.
 
 >>> spec = SweepSpec.from_dict({"protocols": {"v1": {"dqn": {"eps_unit": "episode"}}},
 ...                             "tasks": ["CartPole-v1"], "variants": ["pnn"], "seeds": "0-1"})
@@ -34,10 +34,22 @@ from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig, TaskConfig
 from evodevo.neuromod.variants import get_variant
 from evodevo.parallel import make_pool
 from evodevo.runs import atomic_write_text, read_json
+from evodevo.seed_split import VALIDATION, require_selection
 from evodevo.seeding import parse_seeds
 from evodevo.stats import summarise
 
-__all__ = ["SweepSpec", "protocol_config", "run_sweep", "collect_sweep", "sweep_table"]
+__all__ = [
+    "SWEEP_EVAL_SEED",
+    "SweepSpec",
+    "protocol_config",
+    "run_sweep",
+    "collect_sweep",
+    "sweep_table",
+]
+
+#: First evaluation seed of the sweep's runs: validation seeds (the ones the committed sweep
+#: read, 10000..10019), because the sweep picks a protocol (SPEC §6).
+SWEEP_EVAL_SEED = VALIDATION.first
 
 _THESIS = {env: (episodes, steps) for env, episodes, steps in THESIS_TASKS}
 
@@ -151,8 +163,16 @@ class SweepSpec:
         ]
 
     def run_config(self, protocol: str, task: str) -> BiarmConfig:
-        """The config of one run: the protocol's overrides, ``task`` alone at its episodes."""
-        cfg = protocol_config(BiarmConfig(), self.protocols[protocol])
+        """The config of one run: the protocol's overrides, ``task`` alone at its episodes.
+
+        The sweep chooses a protocol, so its runs are evaluated on validation seeds
+        (:data:`SWEEP_EVAL_SEED` unless the protocol names others); a protocol that points
+        ``eval.seed`` at the locked test range is refused (SPEC §6)."""
+        over = self.protocols[protocol]
+        cfg = protocol_config(BiarmConfig(), over)
+        if "seed" not in over.get("eval", {}):
+            cfg.eval.seed = SWEEP_EVAL_SEED
+        require_selection(cfg.eval.seed, cfg.eval.episodes, f"protocol {protocol!r} eval.seed")
         episodes, steps = _THESIS.get(task, (cfg.default_episodes, None))
         cfg.tasks = [TaskConfig(task, episodes, steps)]
         cfg.episodes_scale = self.episodes_scale
@@ -251,8 +271,10 @@ def sweep_table(spec: SweepSpec, out: str | Path) -> str:
     text = (
         "Final greedy return of each task trained alone (its thesis episodes), mean ± std "
         "[bootstrap 95 % CI] over seeds "
-        f"{spec.seeds[0]}-{spec.seeds[-1]}, on the SPEC §1.7 evaluation seeds. Under "
-        "`keep: best` the task keeps the column that scored best on the validation seeds; "
+        f"{spec.seeds[0]}-{spec.seeds[-1]}, on validation seeds from "
+        f"{SWEEP_EVAL_SEED} (the sweep chooses a protocol, so it never reads the locked test "
+        "range, SPEC §6). Under `keep: best` the task keeps the column that scored best on the "
+        "column-picking validation seeds; "
         "the `(last network)` row is the same runs' final network on the same evaluation "
         "seeds.\n\n"
         + "\n".join(lines)

@@ -21,6 +21,7 @@ from evodevo.neuromod.forgetting import forgetting
 from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4, TABLE_3_5
 from evodevo.neuromod.variants import VARIANTS
 from evodevo.runs import read_json
+from evodevo.seed_split import range_label
 from evodevo.stats import summarise
 
 __all__ = [
@@ -163,7 +164,8 @@ def run_facts(
     ev = s.get("eval_seeds")
     if ev:
         facts["evaluation"] = (
-            f"{len(ev)} greedy evaluation episodes per task (seeds {ev[0]}..{ev[-1]})"
+            f"{len(ev)} greedy evaluation episodes per task (seeds {ev[0]}..{ev[-1]}: the "
+            f"{range_label(ev[0], len(ev))} range, SPEC §6)"
         )
     m = saved.get("machine")
     if m:

@@ -14,6 +14,8 @@ reference of issue 4.
   (``finetune``), optionally held near each earlier task's optimum by EWC (Eq. 2.4,
   :mod:`evodevo.neuromod.ewc`).
 * ``sb3``: a single-task SB3 DQN per task.
+* ``single``: progressive columns that never read each other (``lateral=False``): the
+  single-task reference per task that forward transfer is measured against (SPEC §6).
 
 >>> VARIANTS["no-da"].ablated
 ('DA',)
@@ -48,6 +50,10 @@ class Variant:
             an ``sb3`` DQN per task.
         consolidation: ``ewc`` adds the Eq. 2.4 penalty on the shared body; ``none`` is
             plain fine-tuning.
+        lateral: a new column reads the earlier ones (PNN, BIARM); ``False`` is the
+            single-task reference of SPEC §6 (``single``): the PNN code with every lateral
+            input scaled by 0, so each task's column learns alone -- with the same seeds,
+            episodes, initial weights and protocol as the PNN column it is the reference of.
     """
 
     name: str
@@ -56,6 +62,7 @@ class Variant:
     ablated: tuple[str, ...] = ()
     architecture: Architecture = "progressive"
     consolidation: Literal["none", "ewc"] = "none"
+    lateral: bool = True
 
 
 VARIANTS: dict[str, Variant] = {
@@ -68,6 +75,7 @@ VARIANTS: dict[str, Variant] = {
     "finetune": Variant("finetune", False, False, architecture="shared"),
     "ewc": Variant("ewc", False, False, architecture="shared", consolidation="ewc"),
     "sb3-dqn": Variant("sb3-dqn", False, False, architecture="sb3"),
+    "single": Variant("single", False, False, lateral=False),
 }
 
 #: The continual-learning baselines of issue 4 (part 2), in table order.
