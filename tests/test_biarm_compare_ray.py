@@ -36,7 +36,7 @@ def test_grid_on_ray_equals_local_and_resumes_partial_runs(tmp_path):
     cut = ray_root / "runs" / "biarm__s0"
     with pytest.raises(Killed):
         train(cfg, "biarm", 0, cut, hook=_kill_at(1, 3))
-    assert (cut / "checkpoints" / "task1_ep2.pt").is_file()
+    assert (cut / "checkpoints" / "task1_ep2.safetensors").is_file()
     done = run_grid(cfg, variants, seeds, ray_root, workers=2, backend="ray")
     assert sorted(done) == sorted(
         str(ray_root / "runs" / n) for n in ("biarm__s0", "biarm__s1", "pnn__s1")

@@ -227,7 +227,7 @@ def test_shared_body_variants_through_the_cli(tmp_path, tiny_cfg, variant):
     out = tmp_path / variant
     s = _train_cli(tiny_cfg, variant, out)
     _check_run_files(out, s, variant)
-    ckpt = load_checkpoint(out / "checkpoints" / "task2.pt")["agent"]
+    ckpt = load_checkpoint(out / "checkpoints" / "task2.safetensors")["agent"]
     assert ("ewc" in ckpt) == (variant == "ewc")
     agent = load_agent(out)  # the saved agent is the trained one
     if variant == "ewc":

@@ -16,10 +16,11 @@ import torch
 from evodevo.config import from_dict
 from evodevo.errors import CheckpointError, ConfigError
 from evodevo.neuromod import train
-from evodevo.neuromod.checkpoint import latest_resume_point, load_checkpoint
+from evodevo.neuromod.checkpoint import FORMAT, latest_resume_point, load_checkpoint
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.trainer import TIMING_KEYS
 from evodevo.runs import RunDir
+from evodevo.safe_io import save_state
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
@@ -67,8 +68,8 @@ def _same_run(a: Path, b: Path) -> None:
     for name in ("metrics.csv", "neuromod.csv"):
         assert RunDir(a).read_csv(name) == RunDir(b).read_csv(name), name
     last = len(sa["tasks"]) - 1
-    na = load_checkpoint(a / "checkpoints" / f"task{last}.pt")["agent"]["net"]
-    nb = load_checkpoint(b / "checkpoints" / f"task{last}.pt")["agent"]["net"]
+    na = load_checkpoint(a / "checkpoints" / f"task{last}.safetensors")["agent"]["net"]
+    nb = load_checkpoint(b / "checkpoints" / f"task{last}.safetensors")["agent"]["net"]
     assert na.keys() == nb.keys()
     assert all(torch.equal(na[k], nb[k]) for k in na)
 
@@ -86,8 +87,8 @@ def test_killed_mid_task_resumes_to_the_uninterrupted_run(
         train(cfg, variant, 4, tmp_path / "cut", hook=_kill_at(task, episode))
     point = latest_resume_point(tmp_path / "cut" / "checkpoints")
     assert point is not None and point.task == task and point.episodes == 2
-    partials = sorted(p.name for p in (tmp_path / "cut" / "checkpoints").glob("*_ep*.pt"))
-    assert partials == [f"task{task}_ep2.pt"]  # only the newest mid-task file is kept
+    partials = sorted(p.name for p in (tmp_path / "cut" / "checkpoints").glob("*_ep*.safetensors"))
+    assert partials == [f"task{task}_ep2.safetensors"]  # only the newest mid-task file is kept
     assert not (tmp_path / "cut" / "summary.json").exists()
     before = load_checkpoint(point.path)["elapsed"]
     assert before["cpu_seconds"] > 0 and before["timing_complete"]
@@ -98,7 +99,7 @@ def test_killed_mid_task_resumes_to_the_uninterrupted_run(
     assert after["cpu_seconds"] > before["cpu_seconds"] and after["timing_complete"]
     assert after["wall_seconds"] > before["wall_seconds"]
     # finished tasks supersede their mid-task files
-    assert not list((tmp_path / "cut" / "checkpoints").glob("*_ep*.pt"))
+    assert not list((tmp_path / "cut" / "checkpoints").glob("*_ep*.safetensors"))
 
 
 def test_checkpoint_every_zero_writes_only_task_checkpoints(tmp_path):
@@ -112,7 +113,7 @@ def test_checkpoint_every_zero_writes_only_task_checkpoints(tmp_path):
 def _partial_run(tmp_path: Path) -> Path:
     with pytest.raises(Killed):
         train(tiny(), "biarm", 1, tmp_path, hook=_kill_at(0, 3))
-    return tmp_path / "checkpoints" / "task0_ep2.pt"
+    return tmp_path / "checkpoints" / "task0_ep2.safetensors"
 
 
 def test_truncated_checkpoint_gives_one_clear_error(tmp_path):
@@ -128,15 +129,21 @@ def test_truncated_checkpoint_gives_one_clear_error(tmp_path):
 
 def test_foreign_checkpoints_are_refused(tmp_path):
     ckpt = _partial_run(tmp_path)
-    torch.save({"weights": torch.zeros(3)}, ckpt)
+    torch.save({"weights": torch.zeros(3)}, ckpt)  # a pickle-based file is never opened
+    with pytest.raises(CheckpointError, match="no longer opens"):
+        train(tiny(), "biarm", 1, tmp_path, resume=True)
+    save_state(ckpt, "other", {"weights": torch.zeros(3)})
+    with pytest.raises(CheckpointError, match="not a 'evodevo-biarm' state"):
+        train(tiny(), "biarm", 1, tmp_path, resume=True)
+    save_state(ckpt, FORMAT, {"weights": torch.zeros(3)})
     with pytest.raises(CheckpointError, match="is not a BIARM checkpoint"):
         train(tiny(), "biarm", 1, tmp_path, resume=True)
     # a checkpoint of another seed copied into this run
     _partial_run(tmp_path / "other")
-    other = tmp_path / "other" / "checkpoints" / "task0_ep2.pt"
+    other = tmp_path / "other" / "checkpoints" / "task0_ep2.safetensors"
     data = load_checkpoint(other)
     data["seed"] = 7
-    torch.save(data, ckpt)
+    save_state(ckpt, FORMAT, data)
     with pytest.raises(CheckpointError, match="belongs to a run with seed 7"):
         train(tiny(), "biarm", 1, tmp_path, resume=True)
 

@@ -57,8 +57,8 @@ def _hash_column(state: dict[str, torch.Tensor], col: int) -> str:
 @pytest.mark.parametrize("variant", ["pnn", "biarm"])
 def test_frozen_column_unchanged_by_hash(tmp_path, variant):
     train(tiny(), variant, 0, tmp_path)
-    after0 = load_checkpoint(tmp_path / "checkpoints" / "task0.pt")["agent"]["net"]
-    after1 = load_checkpoint(tmp_path / "checkpoints" / "task1.pt")["agent"]["net"]
+    after0 = load_checkpoint(tmp_path / "checkpoints" / "task0.safetensors")["agent"]["net"]
+    after1 = load_checkpoint(tmp_path / "checkpoints" / "task1.safetensors")["agent"]["net"]
     assert _hash_column(after0, 0) == _hash_column(after1, 0)
     # the column that was trained did change relative to its initialisation seed
     fresh = load_agent(tmp_path).net.columns[1].w2.detach().clone()
@@ -97,7 +97,7 @@ def test_resume_after_kill_gives_same_summary(tmp_path):
 
     with pytest.raises(Killed):
         train(tiny(), "biarm", 2, tmp_path / "cut", hook=kill)
-    assert (tmp_path / "cut" / "checkpoints" / "task0.pt").is_file()
+    assert (tmp_path / "cut" / "checkpoints" / "task0.safetensors").is_file()
     assert not (tmp_path / "cut" / "summary.json").exists()
     resumed = train(tiny(), "biarm", 2, tmp_path / "cut", resume=True)
     assert strip_timing(resumed) == strip_timing(full)
@@ -145,10 +145,10 @@ def test_learned_modules_train_fixed_modules_do_not(tmp_path):
     learned_cfg = tiny(modules={"sample_interval": 10, "learning": "learned"})
     learned = train(learned_cfg, "biarm", 0, tmp_path / "l")
     assert fixed["module_learning"] == "fixed" and learned["module_learning"] == "learned"
-    f0 = load_checkpoint(tmp_path / "f" / "checkpoints" / "task0.pt")["agent"]["modules"]
-    f1 = load_checkpoint(tmp_path / "f" / "checkpoints" / "task1.pt")["agent"]["modules"]
-    l0 = load_checkpoint(tmp_path / "l" / "checkpoints" / "task0.pt")["agent"]["modules"]
-    l1 = load_checkpoint(tmp_path / "l" / "checkpoints" / "task1.pt")["agent"]["modules"]
+    f0 = load_checkpoint(tmp_path / "f" / "checkpoints" / "task0.safetensors")["agent"]["modules"]
+    f1 = load_checkpoint(tmp_path / "f" / "checkpoints" / "task1.safetensors")["agent"]["modules"]
+    l0 = load_checkpoint(tmp_path / "l" / "checkpoints" / "task0.safetensors")["agent"]["modules"]
+    l1 = load_checkpoint(tmp_path / "l" / "checkpoints" / "task1.safetensors")["agent"]["modules"]
     assert torch.equal(f0["w1"], f1["w1"])
     # column 0 has no laterals (no gate): modules first learn during task 1
     assert torch.equal(f0["w1"], l0["w1"])
@@ -177,7 +177,7 @@ THREE: dict[str, Any] = {
 @pytest.mark.parametrize("variant", ["pnn", "biarm"])
 def test_resume_at_a_later_task_boundary_gives_the_same_weights(tmp_path, variant):
     """Killed at the start of MountainCar (after Acrobot's 6-value observations), resumed from
-    ``task1.pt``: the same weights as the uninterrupted run. Before the fix the padded input
+    ``task1.safetensors``: the same weights as the uninterrupted run. Before the fix the padded input
     positions kept Acrobot's last observation in the uninterrupted run only (stale padding)."""
     cfg = from_dict(BiarmConfig, THREE)
     train(cfg, variant, 0, tmp_path / "full")
@@ -192,8 +192,8 @@ def test_resume_at_a_later_task_boundary_gives_the_same_weights(tmp_path, varian
     with pytest.raises(Killed):
         train(cfg, variant, 0, tmp_path / "cut", hook=kill)
     train(cfg, variant, 0, tmp_path / "cut", resume=True)
-    a = load_checkpoint(tmp_path / "full" / "checkpoints" / "task2.pt")["agent"]["net"]
-    b = load_checkpoint(tmp_path / "cut" / "checkpoints" / "task2.pt")["agent"]["net"]
+    a = load_checkpoint(tmp_path / "full" / "checkpoints" / "task2.safetensors")["agent"]["net"]
+    b = load_checkpoint(tmp_path / "cut" / "checkpoints" / "task2.safetensors")["agent"]["net"]
     for key in a:
         assert torch.equal(a[key], b[key]), key
 

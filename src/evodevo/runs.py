@@ -19,15 +19,16 @@ import os
 import platform
 import tempfile
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from evodevo.errors import CheckpointError, EvodevoError
 
 __all__ = [
     "RunDir",
     "atomic_write_bytes",
+    "atomic_write_with",
     "atomic_write_text",
     "write_json",
     "read_json",
@@ -50,11 +51,13 @@ def current_umask() -> int:
     return mask
 
 
-def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file in the same folder and an atomic rename.
+def atomic_write_with(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
+    """Let ``write`` fill a temporary file in ``path``'s folder, then rename it to ``path``.
 
-    The file gets the mode an ordinary ``open(path, "w")`` would (0666 minus the umask), not
-    ``mkstemp``'s 0600, so collaborators on shared storage can read the run.
+    For files too large to build in memory first (a TD3 replay buffer); a kill during the
+    write leaves the previous ``path`` intact. The file gets the mode an ordinary
+    ``open(path, "w")`` would (0666 minus the umask), not ``mkstemp``'s 0600, so collaborators
+    on shared storage can read the run.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -62,7 +65,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     try:
         os.fchmod(fd, 0o666 & ~current_umask())
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -70,6 +73,12 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` via a temporary file in the same folder and an atomic rename
+    (:func:`atomic_write_with`)."""
+    atomic_write_with(path, lambda fh: fh.write(data))
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:

@@ -2,9 +2,9 @@
 
 :func:`train` runs the task sequence for one variant and seed into a run directory:
 ``config.json``, ``metrics.csv`` (one row per episode), ``neuromod.csv`` (one row every
-``modules.sample_interval`` environment steps), ``checkpoints/task{i}.pt`` after every task,
-``checkpoints/task{i}_ep{k}.pt`` every ``checkpoint_every`` episodes within a task
-(:mod:`evodevo.neuromod.checkpoint`), and ``summary.json`` at the end. Every random stream is
+``modules.sample_interval`` environment steps), ``checkpoints/task{i}.safetensors`` after
+every task, ``checkpoints/task{i}_ep{k}.safetensors`` every ``checkpoint_every`` episodes within
+a task (:mod:`evodevo.neuromod.checkpoint`), and ``summary.json`` at the end. Every random stream is
 derived from the run seed and the task index (:mod:`evodevo.seeding`): the replay sampling and
 exploration stream ``np_rng(seed, 1, i)``, the environment ``derive(seed, 2, i)`` (its first
 reset; later resets continue the environment's own ``np_random``), column i
