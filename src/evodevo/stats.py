@@ -1,4 +1,10 @@
-"""Intervals and tests (SPEC §6): Wilson for rates, bootstrap for means, exact tests for differences.
+"""Statistics of one run (SPEC §7): Wilson intervals for success rates, bootstrap intervals for
+means of a run's episodes, exact tests (McNemar, Fisher) between policies on episodes.
+
+They describe one run; they never compare learners. Comparisons between learners, with the
+training run as the unit (rliable aggregates, paired sign-flip and Wilcoxon tests on seeds,
+verdicts against a margin δ), live in :mod:`evodevo.evidence` (SPEC §6), which reuses
+:func:`holm` from here for the p-values of a table.
 
 >>> lo, hi = wilson_interval(23, 40)
 >>> round(lo, 3), round(hi, 3)
