@@ -14,10 +14,10 @@ gives the same interval, and nothing touches global state. Given a ``RandomState
 like the global RNG they reproduce rliable's own numbers exactly.
 
 >>> scores = {"a": np.array([[0.1, 0.2], [0.3, 0.4], [0.5, 0.6], [0.7, 0.8]])}
->>> agg = aggregate(scores, reps=200, seed=0)
+>>> agg = aggregate_scores(scores, reps=200, seed=0)
 >>> round(agg.estimate("a", "IQM").point, 6)
 0.45
->>> agg.estimate("a", "IQM") == aggregate(scores, reps=200, seed=0).estimate("a", "IQM")
+>>> agg.estimate("a", "IQM") == aggregate_scores(scores, reps=200, seed=0).estimate("a", "IQM")
 True
 """
 
@@ -41,7 +41,7 @@ __all__ = [
     "Aggregates",
     "Profiles",
     "interval_estimates",
-    "aggregate",
+    "aggregate_scores",
     "probability_of_improvement",
     "performance_profiles",
 ]
@@ -51,7 +51,7 @@ DEFAULT_REPS = 10_000
 #: Coverage of every interval.
 LEVEL = 0.95
 
-#: The aggregates :func:`aggregate` reports, by name, as rliable computes them.
+#: The aggregates :func:`aggregate_scores` reports, by name, as rliable computes them.
 AGGREGATES: dict[str, Callable[[np.ndarray], Any]] = {
     "IQM": metrics.aggregate_iqm,
     "Mean": metrics.aggregate_mean,
@@ -203,7 +203,7 @@ class Aggregates:
         return "\n".join(lines)
 
 
-def aggregate(
+def aggregate_scores(
     score_dict: Mapping[str, np.ndarray],
     reps: int = DEFAULT_REPS,
     seed: Seed = 0,

@@ -1,7 +1,7 @@
 """Figures of the aggregates: performance profiles and interval estimates (SPEC §6).
 
 Both are drawn only from the arrays they are given (those of :func:`~evodevo.evidence.aggregate.
-performance_profiles` and :func:`~evodevo.evidence.aggregate.aggregate`), on a matplotlib
+performance_profiles` and :func:`~evodevo.evidence.aggregate.aggregate_scores`), on a matplotlib
 ``Figure`` of their own (no pyplot state), and saved to a path; the format follows its suffix.
 The profile is drawn by rliable's ``plot_performance_profiles`` on that figure's axis. The
 interval estimates are drawn here in the same layout as rliable's ``plot_interval_estimates``,
