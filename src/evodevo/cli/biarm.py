@@ -21,7 +21,7 @@ from evodevo.cli.common import ADDRESS_HELP, check_backend, check_seed, parse_li
 from evodevo.errors import EvodevoError
 
 #: Every variant name (kept literal: importing the variants module would load torch on start).
-VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, finetune, ewc, sb3-dqn, single"
+VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, clamped, finetune, ewc, sb3-dqn, single"
 
 __all__ = ["app"]
 

@@ -14,6 +14,9 @@ reference of issue 4.
   (``finetune``), optionally held near each earlier task's optimum by EWC (Eq. 2.4,
   :mod:`evodevo.neuromod.ewc`).
 * ``sb3``: a single-task SB3 DQN per task.
+* ``clamped``: BIARM with all four states held at rest (every module ablated, SPEC §1.5):
+  gated laterals whose context gate and learning rate stay at their resting values -- the
+  control that separates modulation from BIARM's architecture and resting learning rate.
 * ``single``: progressive columns that never read each other (``lateral=False``): the
   single-task reference per task that forward transfer is measured against (SPEC §6).
 
@@ -31,6 +34,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from evodevo.errors import EvodevoError
+from evodevo.neuromod.config import MODULE_NAMES
 
 __all__ = ["Variant", "VARIANTS", "CONTINUAL_BASELINES", "get_variant"]
 
@@ -72,6 +76,7 @@ VARIANTS: dict[str, Variant] = {
     "no-5ht": Variant("no-5ht", True, True, ("5HT",)),
     "no-ne": Variant("no-ne", True, True, ("NE",)),
     "no-ach": Variant("no-ach", True, True, ("ACh",)),
+    "clamped": Variant("clamped", True, True, MODULE_NAMES),
     "finetune": Variant("finetune", False, False, architecture="shared"),
     "ewc": Variant("ewc", False, False, architecture="shared", consolidation="ewc"),
     "sb3-dqn": Variant("sb3-dqn", False, False, architecture="sb3"),

@@ -35,7 +35,8 @@ class BiarmBudget:
     enabled: bool = doc(True, "run the BIARM part")
     variants: list[str] = doc(
         list(BIARM_VARIANTS),
-        "variants of the grid: SPEC §1.5, the continual baselines finetune, ewc, sb3-dqn, and the "
+        "variants of the grid: SPEC §1.5, clamped (every module at rest), the continual baselines "
+        "finetune, ewc, sb3-dqn, and the "
         "single-task reference single (SPEC §6)",
     )
     seeds: str = doc("0-4", "seed range, e.g. 0-4")
