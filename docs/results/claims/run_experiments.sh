@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The pre-registered experiments of docs/results/claims.md, each run by the code of the commit it
+# was registered at (a git worktree per commit, beside the checkout), into this folder.
+# Resumable: run it again and finished runs are skipped, interrupted ones resume from their
+# checkpoints. Usage (from the repository root): bash docs/results/claims/run_experiments.sh [E1|E2 ...]
+set -euo pipefail
+root=$(git rev-parse --show-toplevel)
+cd "$root"
+py="$root/.venv/bin/python"
+out=docs/results/claims
+
+code_at() {  # the worktree of commit $1 (created once)
+  local wt="$root/../wt-$1"
+  [ -d "$wt" ] || git worktree add -q "$wt" "$1"
+  echo "$wt/src"
+}
+
+compare() {  # compare SRC ARGS...: biarm compare with the code of SRC
+  local src=$1; shift
+  PYTHONPATH="$src" nice -n 10 "$py" -m evodevo biarm compare --workers 2 --quiet "$@"
+}
+
+e1() {
+  local src; src=$(code_at 139de91)
+  for s in 0-1 2-3 4-5 6-7 8-9; do
+    compare "$src" --variants pnn,biarm,single --seeds "$s" --out "$out/default"
+  done
+}
+
+e2() {
+  local src; src=$(code_at 491f493)
+  local eta='{CartPole-v1: {lr: 4.98e-4}, Acrobot-v1: {lr: 4.87e-4}, MountainCar-v0: {lr: 5.32e-4}, LunarLander-v3: {lr: 4.95e-4}}'
+  for s in 0-1 2-3 4-5 6-7 8-9; do
+    compare "$src" --protocol v1 --variants pnn,biarm,clamped --seeds "$s" --out "$out/v1"
+    compare "$src" --protocol v1 --variants pnn --set "dqn.per_task=$eta" --seeds "$s" --out "$out/v1_eta"
+  done
+}
+
+for e in "${@:-E1 E2}"; do
+  for x in $e; do
+    echo "== $x $(date -u +%FT%TZ)"
+    "${x,,}"
+  done
+done
