@@ -88,13 +88,14 @@ def test_sb3_baseline_trains_to_the_exact_step_budget_and_is_evaluable(tmp_path,
     curve = (out / "learning_curve.csv").read_text().splitlines()
     assert [int(r.split(",")[0]) for r in curve[1:]] == [8, 16]
     assert s["success_history"] == [float(r.split(",")[2]) for r in curve[1:]]
-    assert (out / "model.zip").is_file()
-    # only the last checkpoint is kept (TD3: with its replay buffer)
-    zips = sorted(p.name for p in (out / "checkpoints").glob("*.zip"))
-    assert zips == ["rl_model_16_steps.zip"]
-    assert (out / "checkpoints" / "rl_model_replay_buffer_16_steps.pkl").is_file() == (
+    assert (out / "model.safetensors").is_file()
+    # only the last checkpoint is kept (TD3: with its replay buffer); nothing is a pickle
+    models = sorted(p.name for p in (out / "checkpoints").glob("*.safetensors"))
+    assert models == ["rl_model_16_steps.safetensors"]
+    assert (out / "checkpoints" / "rl_model_replay_buffer_16_steps.npz").is_file() == (
         method == "td3"
     )
+    assert not list(out.rglob("*.zip")) and not list(out.rglob("*.pkl"))
     res = invoke("evaluate", out, "--test-episodes", 1, "--no-baselines", "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
     assert result["controller"] == method and result["episodes"] == 1
@@ -131,10 +132,10 @@ def test_sb3_policy_acts_like_the_saved_model(tmp_path, tiny):
     invoke(
         "kuka", "--method", "ppo", "--budget-steps", 8, "--config", tiny, "--out", out, "--quiet"
     )
-    model = load_sb3("ppo", out / "model.zip")
+    model = load_sb3("ppo", out / "model.safetensors")
     imgs = np.random.default_rng(0).integers(0, 256, (3, 48, 48, 3), dtype=np.uint8)
     policy = Sb3Policy(KukaBaselineConfig().evaluator_config(), 3)
-    state = policy.reset_state([Sb3Model("ppo", str(out / "model.zip"))] * 3)
+    state = policy.reset_state([Sb3Model("ppo", str(out / "model.safetensors"))] * 3)
     got = policy.step(state, np.arange(3), imgs, np.zeros((3, 4)), [], np.zeros(3, bool))
     want = np.stack([model.predict(im, deterministic=True)[0] for im in imgs])
     np.testing.assert_allclose(got, want, atol=1e-6)
@@ -150,7 +151,7 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
     # one generation of 2 genomes x 1 episode, then the step budget is spent
     assert s["generations_run"] == 1 and s["episodes_run"] == 2 and s["stopped_by"] == "steps"
     assert 2 <= s["env_steps"] <= 16
-    for name in ("encoder.pt", "neat.ini", "best_genome.pkl", "history.csv"):
+    for name in ("encoder.pt", "neat.ini", "best_genome.json", "history.csv"):
         assert (out / name).is_file(), name
     assert "pop_size               = 2" in (out / "neat.ini").read_text()
     assert "weight_mutate_rate      = 0.8" in (out / "neat.ini").read_text()
@@ -184,7 +185,7 @@ def test_ppo_on_the_blob_front_end_reads_4_features_and_is_evaluable(tmp_path, t
     assert json.loads(res.output.strip().splitlines()[-1])["controller"] == "ppo"
     from evodevo.baselines.policies import load_sb3
 
-    model = load_sb3("ppo", out / "model.zip")
+    model = load_sb3("ppo", out / "model.safetensors")
     assert model.observation_space.shape == (4,)
     # the wrapper's features are the front-end's on the same frame
     env = make_env("evodevo/KukaDiverseObject-v0", {"max_steps": 8})
@@ -273,7 +274,9 @@ def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeyp
     out = tmp_path / "ppo"
     _killed_at_20_of_24("ppo", tiny, out, monkeypatch)
     assert not (out / "summary.json").exists()
-    assert [p.name for p in (out / "checkpoints").glob("*.zip")] == ["rl_model_16_steps.zip"]
+    assert [p.name for p in (out / "checkpoints").glob("*.safetensors")] == [
+        "rl_model_16_steps.safetensors"
+    ]
     # a fresh start into the same folder is refused
     with pytest.raises(EvodevoError, match="--resume"):
         invoke("kuka", "--method", "ppo", "--budget-steps", 24, "--config", tiny, "--out", out)
@@ -287,11 +290,11 @@ def test_killed_ppo_run_resumes_from_its_last_checkpoint(tmp_path, tiny, monkeyp
 
 
 def test_td3_resumed_without_its_replay_buffer_refills_it_and_says_so(tmp_path, tiny, monkeypatch):
-    from stable_baselines3 import TD3
+    from evodevo.baselines.sb3_files import read_sb3_counters
 
     out = tmp_path / "td3"
     _killed_at_20_of_24("td3", tiny, out, monkeypatch)
-    (out / "checkpoints" / "rl_model_replay_buffer_16_steps.pkl").unlink()
+    (out / "checkpoints" / "rl_model_replay_buffer_16_steps.npz").unlink()
     res = runner.invoke(app, ["kuka", "--method", "td3", "--out", str(out), "--resume", "--quiet"])
     assert res.exit_code == 0, res.output
     assert "replay buffer of the 16-step checkpoint" in res.output
@@ -300,9 +303,9 @@ def test_td3_resumed_without_its_replay_buffer_refills_it_and_says_so(tmp_path, 
     # learning_starts 4: the 16-step checkpoint holds the updates after steps 5-15 (11; it is
     # written before step 16's update). After the refill no update until step 20, then after
     # steps 21-23 (the budget stops the run before step 24's): 14. Without it: 11 + 7 = 18.
-    model = TD3.load(out / "model.zip", device="cpu")
-    assert model.learning_starts == 20
-    assert model._n_updates == 14
+    counters = read_sb3_counters("td3", out / "model.safetensors")
+    assert counters["learning_starts"] == 20
+    assert counters["_n_updates"] == 14
 
 
 def test_killed_neat_run_resumes_at_its_next_generation(tmp_path, tiny, monkeypatch):
@@ -364,7 +367,7 @@ def test_a_model_of_another_method_is_refused_by_the_evaluator(tmp_path, tiny):
     invoke(
         "kuka", "--method", "ppo", "--out", ppo, "--config", tiny, "--budget-steps", 8, "--quiet"
     )
-    shutil.copy(td3 / "model.zip", ppo / "model.zip")
+    shutil.copy(td3 / "model.safetensors", ppo / "model.safetensors")
     with pytest.raises(EvodevoError, match="is not a saved PPO model"):
         invoke("evaluate", ppo, "--test-episodes", 1)
     from evodevo.grn.evaluation import evaluate_run

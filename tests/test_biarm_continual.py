@@ -257,9 +257,9 @@ def test_sb3_dqn_through_the_cli_writes_nothing_outside_the_run(tmp_path, tiny_c
     assert torch.equal(torch.random.get_rng_state(), before_rng[1])
     assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
         "sb3_progress.json",
-        "sb3_task0.zip",
-        "sb3_task1.zip",
-        "sb3_task2.zip",
+        "sb3_task0.safetensors",
+        "sb3_task1.safetensors",
+        "sb3_task2.safetensors",
     ]
     for t in s["tasks"]:  # a model per task, re-evaluated from its file: 1 by construction
         assert t["retention"] == 1.0 and t["returns_after"] == [t["initial_return"]] * len(
@@ -279,7 +279,7 @@ def test_sb3_dqn_resume_after_a_finished_task_gives_the_same_run(tmp_path, tiny_
     assert progress["elapsed"]["timing_complete"] is True  # the time is saved with the progress
     progress["elapsed"] = {"wall_seconds": 1000.0, "cpu_seconds": 500.0, "timing_complete": True}
     (part / "checkpoints" / "sb3_progress.json").write_text(json.dumps(progress))
-    for name in ("sb3_task1.zip", "sb3_task2.zip"):
+    for name in ("sb3_task1.safetensors", "sb3_task2.safetensors"):
         (part / "checkpoints" / name).unlink()
     (part / "summary.json").unlink()
     res = runner.invoke(biarm_app, ["train", "--resume", "--quiet", "--out", str(part)])

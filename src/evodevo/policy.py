@@ -258,8 +258,9 @@ def _load_biarm(path: Path, task: int | str | None) -> BiarmPolicy:
     saved.pop("seed", None)
     if variant.architecture == "sb3":
         raise EvodevoError(
-            f"{str(path)!r} is a {variant.name} run (Stable-Baselines3 DQN per task); load its "
-            "models with stable_baselines3.DQN.load instead"
+            f"{str(path)!r} is a {variant.name} run (Stable-Baselines3 DQN per task); load a "
+            "task's model with evodevo.baselines.policies.load_sb3('dqn', "
+            "'<run>/checkpoints/sb3_task<i>.safetensors') instead"
         )
     specs, _ = resolve_tasks(from_dict(BiarmConfig, saved))
     if task is None:

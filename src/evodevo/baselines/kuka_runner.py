@@ -145,13 +145,15 @@ def load_run(run: RunDir, saved: dict[str, Any]) -> Any:
     genome: Any = None
     encoder = None
     if cfg.method in ("ppo", "td3"):
-        ref = Sb3Model(cfg.method, str((run / "model.zip").resolve()))
+        from evodevo.baselines.sb3_kuka import MODEL_FILE
+
+        ref = Sb3Model(cfg.method, str((run / MODEL_FILE).resolve()))
         load_sb3(ref.algo, ref.path)  # fail here, with the path, not inside a worker
         genome = ref
     elif cfg.method == "neat":
-        from evodevo.baselines.neat_kuka import NEAT_INI
+        from evodevo.baselines.neat_kuka import GENOME_FILE, NEAT_INI
 
-        genome = NeatNet.load(run / "best_genome.pkl", (run / NEAT_INI).resolve())
+        genome = NeatNet.load(run / GENOME_FILE, (run / NEAT_INI).resolve())
         encoder = load_frontend(cfg.evaluator_config(), run.path)
     # SB3 and trivial policies use no encoder (LoadedRun's Evaluator accepts None)
     return LoadedRun(run, cfg.evaluator_config(), encoder, genome, cfg.method)  # type: ignore[arg-type]

@@ -12,17 +12,18 @@ genomes takes milliseconds), as for the GRN.
 
 The neat config file is written into the run (``neat.ini``) from :data:`NEAT_TEMPLATE` and the
 typed ``neat`` section, so unknown neat keys fail in neat-python and the run records what it used.
-After every generation :class:`RunReporter` (a neat-python reporter) writes a neat checkpoint,
-``neat_state.json``, ``history.csv``, ``learning_curve.csv``, ``best_genome.pkl`` and
-``summary.json``; ``resume`` restores the last generation both files agree on. neat-python keeps
-its random state in Python's ``random`` module (it is seeded through its ``seed`` argument, like
-SB3's ``seed=``, and saved and restored by its checkpoints).
+After every generation :class:`RunReporter` (a neat-python reporter) writes the population
+(``checkpoints/neat-checkpoint-{g}.json``), ``neat_state.json``, ``history.csv``,
+``learning_curve.csv``, ``best_genome.json`` and ``summary.json``; ``resume`` restores the last
+generation both files agree on. Genomes and populations are JSON
+(:mod:`evodevo.baselines.neat_files`), not neat-python's pickles, so a run folder can be opened
+without running code from it. neat-python keeps its random state in Python's ``random`` module
+(it is seeded through its ``seed`` argument, like SB3's ``seed=``, and saved and restored with
+the population).
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
 import sys
 import time
 from dataclasses import dataclass, field
@@ -32,6 +33,7 @@ import numpy as np
 
 from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_config import KukaBaselineConfig
+from evodevo.baselines.neat_files import restore_population, save_population
 from evodevo.baselines.policies import NeatNet, neat_config
 from evodevo.baselines.sb3_kuka import CURVE_FIELDS, summarise
 from evodevo.errors import EvodevoError
@@ -40,12 +42,14 @@ from evodevo.grn.evolution import EPISODE_KEY, training_episodes
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import frontend_dim, load_frontend, make_frontend, save_frontend
 from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
+from evodevo.safe_io import legacy_error
 
 __all__ = ["NEAT_TEMPLATE", "write_neat_config", "NeatState", "RunReporter", "train_neat"]
 
 NEAT_INI = "neat.ini"
 STATE_FILE = "neat_state.json"
 CKPT_PREFIX = "neat-checkpoint-"
+GENOME_FILE = "best_genome.json"
 HISTORY_FIELDS = [
     "generation",
     "best_fitness",
@@ -168,21 +172,15 @@ class RunReporter:
         state: NeatState,
         quiet: bool,
         hooks: TrainingHook | None = None,
+        population: Any = None,
     ):
         self.run = run
         self.cfg = cfg
         self.state = state
         self.quiet = quiet
         self.hooks = hooks if hooks is not None else TrainingHook()
-
-    def __getstate__(self) -> dict[str, Any]:
-        """neat-python pickles its species set, reporters included, into every checkpoint: leave
-        out the live hooks (progress bar, TensorBoard writer)."""
-        return {k: v for k, v in self.__dict__.items() if k != "hooks"}
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self.hooks = TrainingHook()
+        self.population = population
+        """The ``neat.Population`` whose state every checkpoint saves."""
 
     # neat-python's reporter hooks (BaseReporter interface)
     def start_generation(self, generation: int) -> None:
@@ -207,15 +205,10 @@ class RunReporter:
         """Unused hook."""
 
     def end_generation(self, config: Any, population: Any, species_set: Any) -> None:
-        """Save the neat checkpoint of the next generation, then the state and outputs."""
-        import neat
-
+        """Save the population of the next generation, then the state and outputs."""
         nxt = self.state.generation
         folder = self.run.checkpoints
-        with contextlib.redirect_stdout(io.StringIO()):  # neat-python prints the file name
-            neat.Checkpointer(None, None, str(folder / CKPT_PREFIX)).save_checkpoint(
-                config, population, species_set, nxt
-            )
+        save_population(folder / f"{CKPT_PREFIX}{nxt}.json", self.population, nxt)
         write_json(
             folder / STATE_FILE,
             {
@@ -227,8 +220,8 @@ class RunReporter:
                 "history": self.state.history,
             },
         )
-        for old in folder.glob(f"{CKPT_PREFIX}*"):  # keep this one and the one before
-            suffix = old.name[len(CKPT_PREFIX) :]
+        for old in folder.glob(f"{CKPT_PREFIX}*.json"):  # keep this one and the one before
+            suffix = old.name[len(CKPT_PREFIX) : -len(".json")]
             if suffix.isdigit() and int(suffix) < nxt - 1:
                 old.unlink(missing_ok=True)
         self.write_outputs()
@@ -246,11 +239,11 @@ class RunReporter:
             )
 
     def write_outputs(self) -> None:
-        """``history.csv``, ``learning_curve.csv``, ``best_genome.pkl``, ``summary.json``."""
+        """``history.csv``, ``learning_curve.csv``, ``best_genome.json``, ``summary.json``."""
         self.run.write_csv("history.csv", self.state.history, HISTORY_FIELDS)
         self.run.write_csv("learning_curve.csv", curve_rows(self.state.history), CURVE_FIELDS)
         if self.state.best is not None:
-            self.state.best.save(self.run / "best_genome.pkl")
+            self.state.best.save(self.run / GENOME_FILE)
         self.run.write_summary(neat_summary(self.cfg, self.state))
 
 
@@ -299,8 +292,6 @@ def _stop_reason(cfg: KukaBaselineConfig, state: NeatState) -> str | None:
 
 
 def _restore(run: RunDir) -> tuple[Any, NeatState]:
-    import neat
-
     folder = run.path / "checkpoints"
     if not (folder / STATE_FILE).is_file():
         raise EvodevoError(
@@ -308,10 +299,17 @@ def _restore(run: RunDir) -> tuple[Any, NeatState]:
         )
     saved = read_json(folder / STATE_FILE)
     gen = int(saved["generation"])
-    ckpt = folder / f"{CKPT_PREFIX}{gen}"
+    ckpt = folder / f"{CKPT_PREFIX}{gen}.json"
+    if not ckpt.is_file() and (folder / ckpt.stem).is_file():
+        raise legacy_error(folder / ckpt.stem, "a pickled neat-python checkpoint")
     if not ckpt.is_file():
         raise EvodevoError(f"--resume: the neat checkpoint {str(ckpt)!r} is missing")
-    pop = neat.Checkpointer.restore_checkpoint(str(ckpt), neat_config(run / NEAT_INI))
+    pop, saved_gen = restore_population(ckpt, neat_config(run / NEAT_INI))
+    if saved_gen != gen:
+        raise EvodevoError(
+            f"--resume: {str(ckpt)!r} holds generation {saved_gen}, {STATE_FILE} says {gen}; "
+            "the run folder was edited: start the run again"
+        )
     state = NeatState(
         generation=gen,
         env_steps=int(saved["env_steps"]),
@@ -320,8 +318,8 @@ def _restore(run: RunDir) -> tuple[Any, NeatState]:
         train_s=float(saved["train_s"]),
         history=list(saved["history"]),
     )
-    if (run / "best_genome.pkl").is_file():
-        state.best = NeatNet.load(run / "best_genome.pkl", run / NEAT_INI)
+    if (run / GENOME_FILE).is_file() or (run / GENOME_FILE).with_suffix(".pkl").is_file():
+        state.best = NeatNet.load(run / GENOME_FILE, run / NEAT_INI)
     return pop, state
 
 
@@ -364,7 +362,7 @@ def train_neat(
             ini = write_neat_config(cfg, ev.n_actions, run)
             pop = neat.Population(neat_config(ini), seed=cfg.seed)
             state = NeatState()
-        reporter = RunReporter(run, cfg, state, quiet, hooks)
+        reporter = RunReporter(run, cfg, state, quiet, hooks, population=pop)
         pop.add_reporter(reporter)
         hooks.on_steps(state.env_steps)
 

@@ -4,12 +4,14 @@ The GRN :class:`~evodevo.grn.evaluator.Evaluator` runs any object with the ``Pol
 of :mod:`evodevo.grn.controller` (``reset_state(genomes)``, vectorised ``step``). Here:
 
 * :class:`Sb3Policy` (controller ``"evodevo.baselines.policies:Sb3Policy"``) drives a saved
-  Stable-Baselines3 model; its "genome" is an :class:`Sb3Model` (algorithm and file), loaded once
-  per worker. It sets ``uses_image`` so the evaluator hands it the raw 48x48 images.
+  Stable-Baselines3 model; its "genome" is an :class:`Sb3Model` (algorithm and file), whose
+  policy is loaded once per worker by :func:`load_sb3` (no pickle is read:
+  :mod:`evodevo.baselines.sb3_files`). It sets ``uses_image`` so the evaluator hands it the raw 48x48 images.
 * :class:`NeatPolicy` (controller ``"evodevo.baselines.policies:NeatPolicy"``) drives a
   neat-python feed-forward network on the run's fixed encoder features (SPEC §4: 128-d → actions);
-  its genome is a :class:`NeatNet` (the pickled neat genome and the neat config file). On noisy
-  episodes every feature gets N(0, ``evaluation.visual_noise``²).
+  its genome is a :class:`NeatNet` (the neat genome as JSON, :mod:`evodevo.baselines.neat_files`,
+  and the neat config file). On noisy episodes every feature gets
+  N(0, ``evaluation.visual_noise``²).
 
 The SB3 policy on the image ignores the noisy flag (its input is the image, not features); on
 the blob front-end (``ppo.encoder: blob``) it encodes the images itself and noisy episodes get
@@ -20,7 +22,7 @@ Both are picklable references, so the evaluator's worker processes receive them 
 
 from __future__ import annotations
 
-import pickle
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError
+from evodevo.safe_io import legacy_error
 
 __all__ = ["Sb3Model", "Sb3Policy", "NeatNet", "NeatPolicy", "SB3_ALGOS", "load_sb3"]
 
@@ -36,30 +39,20 @@ SB3_ALGOS = ("ppo", "td3")
 """The Stable-Baselines3 methods of SPEC §4."""
 
 
-def load_sb3(algo: str, path: str | Path, env: Any = None) -> Any:
-    """Load a saved SB3 model of ``algo`` ("ppo" or "td3"), with a clear error on a mismatch."""
-    from stable_baselines3 import PPO
+def load_sb3(algo: str, path: str | Path) -> Any:
+    """The policy of a saved SB3 model of ``algo`` ("ppo", "td3"; "dqn" for the BIARM
+    baseline), for acting: ``policy.predict(obs, deterministic=True)`` is what the model's own
+    ``predict`` returns. A clear :class:`~evodevo.errors.CheckpointError` on a mismatch."""
+    from evodevo.baselines.sb3_files import load_sb3_policy
 
-    from evodevo.baselines.sb3_kuka import Td3TwoRates
-
-    classes: dict[str, Any] = {"ppo": PPO, "td3": Td3TwoRates}
-    if algo not in classes:
+    if algo not in (*SB3_ALGOS, "dqn"):
         raise CheckpointError(f"{algo!r} is not an SB3 baseline; choose one of {list(SB3_ALGOS)}")
-    p = Path(path)
-    if not p.is_file():
-        raise CheckpointError(f"{str(p)!r} does not exist; was the {algo} run trained?")
-    try:
-        return classes[algo].load(p, env=env, device="cpu")
-    except (KeyError, ValueError, TypeError, AttributeError, RuntimeError) as exc:
-        raise CheckpointError(
-            f"{str(p)!r} is not a saved {algo.upper()} model ({type(exc).__name__}: {exc}); "
-            "a run directory of another method was passed"
-        ) from None
+    return load_sb3_policy(algo, path)
 
 
 @dataclass(frozen=True)
 class Sb3Model:
-    """Reference to a saved SB3 model: which algorithm, which ``.zip``."""
+    """Reference to a saved SB3 model: which algorithm, which ``.safetensors`` file."""
 
     algo: str
     path: str
@@ -132,9 +125,10 @@ class Sb3Policy:
 
 @dataclass(frozen=True)
 class NeatNet:
-    """A neat-python genome (pickled bytes) and the neat config file it was evolved with."""
+    """A neat-python genome (JSON text of :func:`~evodevo.baselines.neat_files.genome_to_dict`)
+    and the neat config file it was evolved with."""
 
-    genome: bytes
+    genome: str
     config_path: str
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -148,38 +142,44 @@ class NeatNet:
         connections in the same order, hence the same sums), so the evaluator runs one of them
         (:func:`evodevo.grn.evaluator.genome_key`).
         """
-        g = pickle.loads(self.genome)
+        g = json.loads(self.genome)
 
-        def genes(d: dict[Any, Any]) -> tuple[Any, ...]:
-            return tuple((k, tuple(sorted(vars(gene).items()))) for k, gene in d.items())
+        def genes(items: list[dict[str, Any]]) -> tuple[Any, ...]:
+            return tuple(
+                (json.dumps(gene["key"]), tuple(sorted((k, repr(v)) for k, v in gene.items())))
+                for gene in items
+            )
 
-        return (self.config_path, genes(g.nodes), genes(g.connections))
+        return (self.config_path, genes(g["nodes"]), genes(g["connections"]))
 
     @classmethod
     def from_genome(cls, genome: Any, config_path: str | Path) -> NeatNet:
         """Wrap a live neat genome."""
-        return cls(pickle.dumps(genome), str(config_path))
+        from evodevo.baselines.neat_files import genome_to_dict
+
+        return cls(json.dumps(genome_to_dict(genome)), str(config_path))
+
+    def neat_genome(self, config: Any) -> Any:
+        """The neat-python genome, rebuilt for ``config`` (the ``neat.Config`` of the file)."""
+        from evodevo.baselines.neat_files import genome_from_dict
+
+        return genome_from_dict(json.loads(self.genome), config)
 
     @classmethod
     def load(cls, path: str | Path, config_path: str | Path) -> NeatNet:
-        """Load ``best_genome.pkl`` of a NEAT run (written by :meth:`save`)."""
+        """Load ``best_genome.json`` of a NEAT run (written by :meth:`save`)."""
+        from evodevo.baselines.neat_files import read_genome
+
         p = Path(path)
-        if not p.is_file():
-            raise CheckpointError(f"{str(p)!r} does not exist; was the NEAT run trained?")
-        data = p.read_bytes()
-        try:
-            genome = pickle.loads(data)
-        except (pickle.UnpicklingError, EOFError, AttributeError, ImportError) as exc:
-            raise CheckpointError(f"{str(p)!r} is not a pickled NEAT genome ({exc})") from None
-        if not hasattr(genome, "connections") or not hasattr(genome, "nodes"):
-            raise CheckpointError(f"{str(p)!r} holds a {type(genome).__name__}, not a NEAT genome")
-        return cls(data, str(config_path))
+        if not p.is_file() and p.with_suffix(".pkl").is_file():
+            raise legacy_error(p.with_suffix(".pkl"), "a pickled NEAT genome")
+        return cls(json.dumps(read_genome(p, neat_config(config_path))), str(config_path))
 
     def save(self, path: str | Path) -> None:
-        """Atomically write the pickled genome."""
-        from evodevo.runs import atomic_write_bytes
+        """Atomically write the genome as JSON, with the text of its neat config file."""
+        from evodevo.baselines.neat_files import save_genome
 
-        atomic_write_bytes(path, self.genome)
+        save_genome(path, json.loads(self.genome), self.config_path)
 
 
 def neat_config(path: str | Path) -> Any:
@@ -215,11 +215,8 @@ class NeatPolicy:
         for g in genomes:
             if g.config_path not in self._configs:
                 self._configs[g.config_path] = neat_config(g.config_path)
-            nets.append(
-                neat.nn.FeedForwardNetwork.create(
-                    pickle.loads(g.genome), self._configs[g.config_path]
-                )
-            )
+            config = self._configs[g.config_path]
+            nets.append(neat.nn.FeedForwardNetwork.create(g.neat_genome(config), config))
         return nets
 
     def step(

@@ -40,8 +40,9 @@ Settings (SPEC §1.6, the ``dqn`` section of the run config; the same for every 
 Run files are those of :func:`evodevo.neuromod.trainer.train`: ``config.json``,
 ``metrics.csv`` (one row per episode), ``neuromod.csv`` (no modules: blank states, the novelty
 ``n_task`` and the constant learning rate, every ``modules.sample_interval`` steps),
-``summary.json`` with the same keys, plus ``checkpoints/sb3_task{i}.zip`` (SB3's own
-``save``) and ``checkpoints/sb3_progress.json`` after every task. ``--resume`` continues after
+``summary.json`` with the same keys, plus ``checkpoints/sb3_task{i}.safetensors`` (the model
+without pickle, :mod:`evodevo.baselines.sb3_files`; reloaded as its policy, whose ``predict`` is
+the model's) and ``checkpoints/sb3_progress.json`` after every task. ``--resume`` continues after
 the last finished task; an interrupted task is re-run from its start, which gives the same
 numbers because each task is seeded on its own. The summary's ``wall_seconds`` and
 ``cpu_seconds`` are summed over the sessions (:class:`evodevo.run_clock.RunClock`; the progress
@@ -73,6 +74,7 @@ from stable_baselines3 import DQN
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import Logger
 
+from evodevo.baselines.sb3_files import MODEL_SUFFIX, load_sb3_policy, save_sb3
 from evodevo.config import to_dict
 from evodevo.errors import CheckpointError, EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
@@ -103,13 +105,12 @@ PROGRESS_FILE = "sb3_progress.json"
 
 
 def _model_path(run: RunDir, index: int) -> Path:
-    return run.checkpoints / f"sb3_task{index}.zip"
+    return run.checkpoints / f"sb3_task{index}{MODEL_SUFFIX}"
 
 
-def _load_model(run: RunDir, index: int) -> DQN:
-    """Task ``index``'s saved model (SB3's ``load`` re-seeds the global RNGs: scoped)."""
-    with scoped_global_rng():
-        return DQN.load(_model_path(run, index), device="cpu")
+def _load_model(run: RunDir, index: int) -> Any:
+    """Task ``index``'s saved policy (acts as the model's ``predict``)."""
+    return load_sb3_policy("dqn", _model_path(run, index))
 
 
 @contextmanager
@@ -285,8 +286,9 @@ def build_dqn(cfg: BiarmConfig, env: Any, seed: int) -> DQN:
     return model
 
 
-def evaluate_model(model: DQN, spec: TaskSpec, seeds: list[int]) -> list[float]:
-    """Undiscounted returns of greedy episodes of ``model``, one per evaluation seed."""
+def evaluate_model(model: Any, spec: TaskSpec, seeds: list[int]) -> list[float]:
+    """Undiscounted returns of greedy episodes of ``model`` (a DQN or its saved policy), one
+    per evaluation seed."""
     env = make_env(spec.env_id, spec.max_steps)
     returns = []
     try:
@@ -410,7 +412,7 @@ def train_sb3_tasks(
             kept = cb.keep(model)
             if kept is not None:
                 kept["last_network_returns"] = last
-            model.save(_model_path(run, i))
+            save_sb3(model, _model_path(run, i))
             step = cb.step
             initial = evaluate_model(model, spec, seeds)
             results.append(

@@ -2,19 +2,22 @@
 
 Nothing here is an RL algorithm: SB3's PPO and TD3 learn, SB3's callbacks add the rest.
 
-* :class:`KukaCnn` — the Table 4.1 image encoder (Conv 3→16→32(→32), a linear layer), trained
-  with the policy (SB3 scales the uint8 image to [0, 1] and moves channels first).
+* :class:`~evodevo.baselines.kuka_cnn.KukaCnn` — the Table 4.1 image encoder (Conv
+  3→16→32(→32), a linear layer), trained with the policy (SB3 scales the uint8 image to [0, 1]
+  and moves channels first).
 * :class:`Td3TwoRates` — SB3's TD3 with the thesis' two learning rates (actor 1e-4, critic 1e-3):
   only the learning-rate update is overridden.
 * Callbacks: SB3's :class:`~stable_baselines3.common.callbacks.EvalCallback` (success on
-  training objects every ``budget.eval_every_steps``, timed so training time excludes it) and
-  :class:`~stable_baselines3.common.callbacks.CheckpointCallback` (model, and TD3's replay
-  buffer), :class:`ClockCallback` (training time of each checkpoint, older checkpoints pruned)
+  training objects every ``budget.eval_every_steps``, timed so training time excludes it),
+  :class:`~evodevo.baselines.sb3_files.SafeCheckpointCallback` (SB3's checkpoint callback
+  writing the model, and TD3's replay buffer, without pickle), :class:`ClockCallback` (training time of each checkpoint, older checkpoints pruned)
   and :class:`BudgetCallback` (stops at the env-step or wall-clock budget).
 
-:func:`train_sb3` writes ``model.zip``, ``learning_curve.csv`` (env steps, training seconds,
-success), ``summary.json`` and ``checkpoints/``; with ``resume`` it continues from the last
-checkpoint.
+:func:`train_sb3` writes ``model.safetensors``, ``learning_curve.csv`` (env steps, training
+seconds, success), ``summary.json`` and ``checkpoints/``; with ``resume`` it continues from the
+last checkpoint: the model is built from the run's config and its weights, optimiser states and
+counters are loaded (:mod:`evodevo.baselines.sb3_files`; no pickle is read), and training goes on
+from a reset environment.
 """
 
 from __future__ import annotations
@@ -26,28 +29,28 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-import torch
 from stable_baselines3 import PPO, TD3
-from stable_baselines3.common.callbacks import (
-    BaseCallback,
-    CallbackList,
-    CheckpointCallback,
-    EvalCallback,
-)
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
 from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.noise import NormalActionNoise
-from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
-from torch import nn
 
 from evodevo.baselines.hooks import TrainingHook, TrainingHooks
+from evodevo.baselines.kuka_cnn import KukaCnn
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
+from evodevo.baselines.sb3_files import (
+    MODEL_SUFFIX,
+    SafeCheckpointCallback,
+    load_replay_buffer,
+    restore_sb3,
+    save_sb3,
+)
 from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import make_env
 from evodevo.runs import RunDir, read_json, write_json
+from evodevo.safe_io import refuse_legacy
 from evodevo.seeding import derive
 
 __all__ = [
@@ -60,43 +63,19 @@ __all__ = [
     "StepsCallback",
     "train_sb3",
     "CURVE_FIELDS",
+    "MODEL_FILE",
 ]
 
 EVAL_ENV_KEY = 11
 """Seed stream of the training-time success estimates (EvalCallback's env)."""
 CKPT_PREFIX = "rl_model"
+MODEL_FILE = f"model{MODEL_SUFFIX}"
+"""The trained model of a PPO/TD3 run (:func:`evodevo.baselines.sb3_files.save_sb3`)."""
+_LEGACY = (f"{CKPT_PREFIX}_*_steps.zip", f"{CKPT_PREFIX}_replay_buffer_*_steps.pkl")
 CLOCK_FILE = "clock.json"
 REFILLS_FILE = "refills.json"
 CURVE_FIELDS = ["env_steps", "train_s", "success", "mean_reward", "episodes"]
-_KERNELS = ((8, 4), (4, 2), (3, 1))
 _UNLIMITED_STEPS = 10**12
-
-
-class KukaCnn(BaseFeaturesExtractor):
-    """Table 4.1's image encoder: convs (kernels 8/4/3, strides 4/2/1) → ReLU → linear → ReLU.
-
-    Args:
-        observation_space: channel-first image space (SB3 transposes the env's HWC images).
-        channels: output channels of each conv (1 to 3 layers).
-        features_dim: size of the linear layer.
-    """
-
-    def __init__(
-        self, observation_space: gym.spaces.Box, channels: list[int], features_dim: int
-    ) -> None:
-        super().__init__(observation_space, features_dim)
-        layers: list[nn.Module] = []
-        cin = int(observation_space.shape[0])
-        for cout, (k, s) in zip(channels, _KERNELS, strict=False):
-            layers += [nn.Conv2d(cin, cout, k, stride=s), nn.ReLU()]
-            cin = cout
-        self.cnn = nn.Sequential(*layers, nn.Flatten())
-        with torch.no_grad():
-            n_flat = self.cnn(torch.zeros(1, *observation_space.shape)).shape[1]
-        self.linear = nn.Sequential(nn.Linear(n_flat, features_dim), nn.ReLU())
-
-    def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        return self.linear(self.cnn(observations))  # type: ignore[no-any-return]
 
 
 class Td3TwoRates(TD3):
@@ -243,8 +222,10 @@ def write_clock(folder: Path, steps: int, clock: TrainClock) -> None:
 
 def checkpoint_steps(folder: Path) -> list[int]:
     """Env steps of the model checkpoints in ``folder``, ascending."""
-    pat = re.compile(rf"^{CKPT_PREFIX}_(\d+)_steps\.zip$")
-    return sorted(int(m.group(1)) for p in folder.glob("*.zip") if (m := pat.match(p.name)))
+    pat = re.compile(rf"^{CKPT_PREFIX}_(\d+)_steps\{MODEL_SUFFIX}$")
+    return sorted(
+        int(m.group(1)) for p in folder.glob(f"*{MODEL_SUFFIX}") if (m := pat.match(p.name))
+    )
 
 
 def prune_checkpoints(folder: Path, keep: int) -> None:
@@ -252,8 +233,8 @@ def prune_checkpoints(folder: Path, keep: int) -> None:
     for steps in checkpoint_steps(folder):
         if steps != keep:
             for name in (
-                f"{CKPT_PREFIX}_{steps}_steps.zip",
-                f"{CKPT_PREFIX}_replay_buffer_{steps}_steps.pkl",
+                f"{CKPT_PREFIX}_{steps}_steps{MODEL_SUFFIX}",
+                f"{CKPT_PREFIX}_replay_buffer_{steps}_steps.npz",
             ):
                 (folder / name).unlink(missing_ok=True)
 
@@ -337,8 +318,6 @@ def build_model(cfg: KukaBaselineConfig, env: Any) -> Any:
 def _resume_state(
     run: RunDir, cfg: KukaBaselineConfig, env: Any
 ) -> tuple[Any, TrainClock, list[dict[str, Any]]]:
-    from evodevo.baselines.policies import load_sb3
-
     folder = run.path / "checkpoints"
     steps = checkpoint_steps(folder) if folder.is_dir() else []
     if not steps:
@@ -346,11 +325,12 @@ def _resume_state(
             f"--resume: {str(folder)!r} holds no checkpoint yet; start the run again without --resume"
         )
     last = steps[-1]
-    model = load_sb3(cfg.method, folder / f"{CKPT_PREFIX}_{last}_steps.zip", env=env)
-    buffer = folder / f"{CKPT_PREFIX}_replay_buffer_{last}_steps.pkl"
+    model = build_model(cfg, env)
+    restore_sb3(model, folder / f"{CKPT_PREFIX}_{last}_steps{MODEL_SUFFIX}")
+    buffer = folder / f"{CKPT_PREFIX}_replay_buffer_{last}_steps.npz"
     if cfg.method == "td3":
         if buffer.is_file():
-            model.load_replay_buffer(buffer)
+            load_replay_buffer(model, buffer)
         else:
             refill_replay_buffer(model, folder, cfg.td3.learning_starts)
     clocks = read_json(folder / CLOCK_FILE) if (folder / CLOCK_FILE).is_file() else {}
@@ -419,6 +399,8 @@ def train_sb3(
     eval_env.seed(derive(cfg.seed, EVAL_ENV_KEY))
     folder = run.checkpoints
     try:
+        if resume:  # a pickle-based checkpoint is refused, not silently started over
+            refuse_legacy(folder, *_LEGACY)
         # A run killed before its first checkpoint has nothing to continue: start it.
         resume = resume and bool(checkpoint_steps(folder) if folder.is_dir() else [])
         if resume:
@@ -445,7 +427,7 @@ def train_sb3(
         budget = BudgetCallback(clock, max_steps, max_s)
         callbacks = CallbackList(
             [
-                CheckpointCallback(
+                SafeCheckpointCallback(
                     b.checkpoint_every_steps,
                     str(folder),
                     name_prefix=CKPT_PREFIX,
@@ -463,7 +445,7 @@ def train_sb3(
         if remaining > 0 and (max_s is None or clock.train_s < max_s):
             model.learn(remaining, callback=callbacks, reset_num_timesteps=not resume)
         train_s = clock.train_s
-        model.save(run / "model.zip")
+        save_sb3(model, run / MODEL_FILE)
         write_clock(folder, model.num_timesteps, clock)
     finally:
         env.close()
