@@ -25,6 +25,7 @@ from torch.nn import functional as F
 
 from evodevo.errors import CheckpointError
 from evodevo.runs import atomic_write_bytes
+from evodevo.safe_io import load_torch_tensors
 from evodevo.seeding import torch_gen
 
 __all__ = ["Encoder", "ENCODER_KEY", "sensor_vector"]
@@ -83,15 +84,9 @@ class Encoder(nn.Module):
 
     @classmethod
     def load(cls, path: str | Path) -> Encoder:
-        """Load an encoder written by :meth:`save`."""
-        p = Path(path)
-        if not p.is_file():
-            raise CheckpointError(f"{str(p)!r} does not exist; every run saves its encoder.pt")
-        try:
-            state = torch.load(p, map_location="cpu", weights_only=True)
-        except Exception as exc:  # torch raises several types for corrupt files
-            raise CheckpointError(f"{str(p)!r} is not a saved encoder ({exc})") from None
-        return cls(state)
+        """Load an encoder written by :meth:`save` (PyTorch's weights-only reader: a file
+        holding anything but tensors is refused without running code from it)."""
+        return cls(load_torch_tensors(path, "encoder", "every GRN run saves its encoder.pt"))
 
     def forward(self, images: torch.Tensor) -> torch.Tensor:
         """(B, 3, 48, 48) float in [0, 1] → (B, 128) unit-norm features."""

@@ -343,7 +343,7 @@ def _check_frontend(config: Any, encoder: Any, space: gym.Space[Any]) -> None:
 def genome_key(genome: Any) -> Hashable | None:
     """What decides a genome's behaviour, for finding identical twins; None: never deduplicated.
 
-    A genome may define ``behaviour_key()`` (e.g. a NEAT network, whose pickled bytes also hold
+    A genome may define ``behaviour_key()`` (e.g. a NEAT network, whose JSON also holds
     its id); otherwise the key is its type and the bytes, dtypes and shapes of its ``arrays()``;
     a genome without arrays counts by equality if it is hashable (e.g. an SB3 model reference),
     and None (a baseline's placeholder) is one genome.
