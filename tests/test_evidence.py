@@ -112,6 +112,7 @@ def test_stored_random_returns_are_what_the_function_measures():
     assert nrm.measure_random_return("MountainCar-v0", 100) == nrm.RANDOM_RETURNS["MountainCar-v0"]
 
 
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # CartPole-v0 is an old version
 def test_unknown_task_is_measured_on_demand_or_given():
     s = nrm.task_scale("CartPole-v0", episodes=20)
     assert s.random_return == nrm.measure_random_return("CartPole-v0", 20)
@@ -238,7 +239,9 @@ def test_runs_needed_hand_worked():
 
 
 def test_holm_over_a_table_can_turn_different_into_inconclusive():
-    win = verdict.compare("A", [1.0, 1.2, 1.1, 1.3, 0.9, 1.0], "B", [0.0] * 6, 0.1, reps=REPS)
+    win = verdict.compare(
+        "A", [1.0, 1.2, 1.1, 1.3, 0.9, 1.0], "B", [0.0] * 6, 0.1, reps=REPS, task="CartPole-v1"
+    )
     assert win.p == pytest.approx(1 / 32) and win.verdict == verdict.DIFFERENT
     null = verdict.compare("C", [0.1, -0.1] * 3, "B", [0.0] * 6, 0.1, reps=REPS)
     table = verdict.holm_table([win, null, null])
@@ -247,6 +250,7 @@ def test_holm_over_a_table_can_turn_different_into_inconclusive():
     assert table[0].runs_needed == 7  # 2 / 2**7 < 0.05 / 3
     md = verdict.to_markdown(table)
     assert md.count("\n") == 4 and "needs ≈ 7 runs" in md
+    assert md.splitlines()[2].startswith("| CartPole-v1 | A − B | 6 | 1.08 [")
     assert md.splitlines()[2].count("|") == verdict.Comparison.HEADER.splitlines()[0].count("|")
 
 
@@ -254,6 +258,8 @@ def test_decide_rules_and_bad_input():
     assert verdict.decide(0.01, 0.05, 0.001, delta=0.1) == verdict.DIFFERENT  # wins over equiv.
     assert verdict.decide(0.01, 0.05, 0.2, delta=0.1) == verdict.EQUIVALENT
     assert verdict.decide(-0.2, 0.05, 0.2, delta=0.1) == verdict.INCONCLUSIVE
+    # a small p is not enough: the interval must exclude 0 as well
+    assert verdict.decide(-0.05, 0.3, 0.01, delta=0.1) == verdict.INCONCLUSIVE
     with pytest.raises(ValueError, match="delta"):
         verdict.decide(0.0, 0.1, 0.5, delta=0.0)
     with pytest.raises(ValueError, match="same training seeds"):

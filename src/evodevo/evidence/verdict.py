@@ -142,6 +142,7 @@ class Comparison:
         runs_needed: Paired runs a verdict would need; ``None`` once decided.
         test: The test behind ``p``.
         family_size: Comparisons in the Holm family.
+        task: What the scores are of (a task, or "all"); a column of the table.
     """
 
     a: str
@@ -160,11 +161,12 @@ class Comparison:
     runs_needed: int | None
     test: str
     family_size: int = 1
+    task: str = ""
 
     #: Markdown header matching :meth:`fmt`.
     HEADER: ClassVar[str] = (
-        "| A − B | runs | mean diff [95 % CI] | δ | test | p | p (Holm) | MDE | verdict |\n"
-        "|---|---:|---:|---:|---|---:|---:|---:|---|"
+        "| task | A − B | runs | mean diff [95 % CI] | δ | test | p | p (Holm) | MDE | verdict |\n"
+        "|---|---|---:|---:|---:|---|---:|---:|---:|---|"
     )
 
     def fmt(self, digits: int = 2) -> str:
@@ -174,7 +176,7 @@ class Comparison:
         if self.runs_needed is not None:
             verdict += f" (needs ≈ {self.runs_needed} runs)"
         return (
-            f"| {self.a} − {self.b} | {self.n} | {self.mean_diff:{f}} [{self.low:{f}}, "
+            f"| {self.task or '—'} | {self.a} − {self.b} | {self.n} | {self.mean_diff:{f}} [{self.low:{f}}, "
             f"{self.high:{f}}] | {self.delta:{f}} | {self.test} | {self.p:.3g} | "
             f"{self.p_adj:.3g} | {self.mde:{f}} | {verdict} |"
         )
@@ -210,6 +212,7 @@ def compare(
     reps: int = DEFAULT_REPS,
     seed: Seed = 0,
     level: float = LEVEL,
+    task: str = "",
 ) -> Comparison:
     """Compare two learners whose run ``i`` shares training seed ``i``.
 
@@ -224,6 +227,7 @@ def compare(
         reps: Bootstrap resamples of the interval.
         seed: Seed of the bootstrap (and of a Monte-Carlo sign-flip test).
         level: Coverage of the interval.
+        task: What the scores are of, shown in the table.
 
     Returns:
         A :class:`Comparison` whose ``p_adj`` is ``p`` (a table of one); pass a table's
@@ -246,21 +250,22 @@ def compare(
     est = paired_difference_interval(d, reps=reps, seed=seed, level=level)
     std = float(d.std(ddof=1)) if d.size > 1 else 0.0
     base = Comparison(
-        a,
-        b,
-        int(d.size),
-        est.point,
-        est.low,
-        est.high,
-        std,
-        p,
-        p,
-        float(delta),
-        alpha,
-        minimum_detectable_difference(std, int(d.size), alpha),
-        INCONCLUSIVE,
-        None,
-        test,
+        a=a,
+        b=b,
+        n=int(d.size),
+        mean_diff=est.point,
+        low=est.low,
+        high=est.high,
+        std_diff=std,
+        p=p,
+        p_adj=p,
+        delta=float(delta),
+        alpha=alpha,
+        mde=minimum_detectable_difference(std, int(d.size), alpha),
+        verdict=INCONCLUSIVE,
+        runs_needed=None,
+        test=test,
+        task=task,
     )
     return base.redecided(p, 1)
 
