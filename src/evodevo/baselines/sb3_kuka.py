@@ -394,13 +394,13 @@ def train_sb3(
         b.env_steps if b.env_steps is not None else (None if b.minutes else b.default_env_steps)
     )
     max_s = b.minutes * 60.0 if b.minutes is not None else None
+    if resume:  # a pickle-based checkpoint is refused unopened, not silently started over
+        refuse_legacy(run.path / "checkpoints", *_LEGACY)
     env = _vec_env(cfg)
     eval_env = _vec_env(cfg)
     eval_env.seed(derive(cfg.seed, EVAL_ENV_KEY))
     folder = run.checkpoints
     try:
-        if resume:  # a pickle-based checkpoint is refused, not silently started over
-            refuse_legacy(folder, *_LEGACY)
         # A run killed before its first checkpoint has nothing to continue: start it.
         resume = resume and bool(checkpoint_steps(folder) if folder.is_dir() else [])
         if resume:
