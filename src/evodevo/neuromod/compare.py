@@ -6,7 +6,10 @@
 from their newest checkpoint, so the grid itself is resumable, and every run's numbers depend
 on its variant and seed only, not on where it ran. :func:`write_report` reads the saved run files only and
 writes the tables (:mod:`evodevo.neuromod.tables`) as Markdown and CSV next to the figures,
-with the thesis' numbers beside ours.
+with the thesis' numbers beside ours, and the continual-learning metrics of SPEC §6
+(:func:`continual_markdown`: AUC, forward transfer against the ``single`` runs of the grid,
+forgetting, backward transfer, episodes to threshold; ``table_cl_metrics.md/.csv``,
+``table_cl_paired.csv``, ``table_cl_runs.csv``).
 :func:`write_continual_table` (``evodevo compare biarm``) writes the extended Table 3.2/3.5 --
 every variant, the continual baselines of issue 4 included, with final return, retention and
 the forgetting measure of Eq. 1.4 (:mod:`evodevo.neuromod.forgetting`) -- from any set of run
@@ -23,18 +26,23 @@ import numpy as np
 
 from evodevo.config import from_dict
 from evodevo.errors import EvodevoError
+from evodevo.evidence.aggregate import DEFAULT_REPS
 from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.continual_metrics import RunMetrics, grid_metrics
 from evodevo.neuromod.tables import (
     ABLATIONS,
     BENCHMARK_OVERHEAD,
     STATS_NOTE,
     TABLES,
+    ContinualTable,
     _csv,
     _md_table,
     _variant_order,
     budget_paragraph,
     continual_csv,
     continual_records,
+    continual_runs_csv,
+    continual_table,
     finals_by_seed,
     fmt_difference,
     format_seeds,
@@ -58,6 +66,9 @@ __all__ = [
     "run_dir_name",
     "collect",
     "collect_dirs",
+    "run_folders",
+    "CL_TITLE",
+    "continual_markdown",
     "write_report",
     "report_tables",
     "table_markdown",
@@ -176,11 +187,49 @@ def collect(out: str | Path) -> dict[str, dict[int, dict[str, Any]]]:
     return found
 
 
-def write_report(out: str | Path, figures: bool = True) -> Path:
-    """Write ``table_3_*.md/.csv``, ``report.md`` and (optionally) the figures into ``out``.
+def run_folders(out: str | Path) -> dict[str, dict[int, Path]]:
+    """``{variant: {seed: folder}}`` of every finished run under ``DIR/runs`` (as :func:`collect`)."""
+    root = Path(out) / "runs"
+    if not root.is_dir():
+        raise EvodevoError(f"{str(root)!r} does not exist; run `evodevo biarm compare` first")
+    found: dict[str, dict[int, Path]] = {}
+    for folder in sorted(root.iterdir()):
+        p = folder / "summary.json"
+        if p.is_file():
+            s = read_json(p)
+            found.setdefault(str(s["variant"]), {})[int(s["seed"])] = folder
+    return found
+
+
+#: Heading of the continual-learning metrics in every BIARM report.
+CL_TITLE = "Continual-learning metrics (SPEC §6)"
+
+
+def _continual(
+    out: str | Path, reps: int
+) -> tuple[dict[str, dict[int, RunMetrics]], ContinualTable]:
+    metrics = grid_metrics(run_folders(out))
+    return metrics, continual_table(metrics, reps=reps)
+
+
+def continual_markdown(out: str | Path, reps: int = DEFAULT_REPS) -> str:
+    """The continual-learning metrics of a grid folder as Markdown captions and tables
+    (:class:`~evodevo.neuromod.tables.ContinualTable`), or one line saying why there are none
+    (e.g. a run folder without ``metrics.csv``)."""
+    try:
+        return _continual(out, reps)[1].markdown()
+    except EvodevoError as exc:
+        return f"(no continual-learning metrics: {exc})\n"
+
+
+def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS) -> Path:
+    """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_cl_metrics.md/.csv``
+    (with ``table_cl_paired.csv`` and ``table_cl_runs.csv``), ``report.md`` and (optionally)
+    the figures into ``out``.
 
     ``report.md`` states the budget, seeds and machine once at its top and gives each table a
     one-line caption; each ``table_*.md`` file, read on its own, carries the budget too.
+    ``reps``: bootstrap resamples of the continual-learning intervals and comparisons.
     """
     root = Path(out)
     runs = collect(root)
@@ -192,6 +241,17 @@ def write_report(out: str | Path, figures: bool = True) -> Path:
         text = continual_csv(runs) if name == "table_continual" else _csv(header, rows)
         atomic_write_text(root / f"{name}.csv", text)
         parts.append(f"## {title}\n\n{body}")
+    try:
+        metrics, cl = _continual(root, reps)
+    except EvodevoError as exc:
+        parts.append(f"## {CL_TITLE}\n\n(no continual-learning metrics: {exc})\n")
+    else:
+        body = cl.markdown()
+        atomic_write_text(root / "table_cl_metrics.md", f"## {CL_TITLE}\n\n{body}\n{budget}\n")
+        atomic_write_text(root / "table_cl_metrics.csv", cl.csv())
+        atomic_write_text(root / "table_cl_paired.csv", cl.comparisons_csv())
+        atomic_write_text(root / "table_cl_runs.csv", continual_runs_csv(metrics))
+        parts.append(f"## {CL_TITLE}\n\n{body}")
     if figures:
         from evodevo.neuromod.figures import draw_all
 

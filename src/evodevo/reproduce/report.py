@@ -17,7 +17,7 @@ from evodevo.grn.ablation_pooling import (
     pooled_ablations_markdown,
     read_ablation_tables,
 )
-from evodevo.neuromod.compare import collect
+from evodevo.neuromod.compare import CL_TITLE, collect, continual_markdown
 from evodevo.neuromod.tables import (
     STATS_NOTE,
     format_seeds,
@@ -151,9 +151,10 @@ def _biarm_grid(
     runs: Runs,
     own_facts: dict[str, str] | None = None,
 ) -> list[str]:
-    """Tables 3.2-3.5 and the extended table of one grid, computed from its saved runs, its
-    differences from the thesis and its figures; ``own_facts``: the model, evaluation or
-    machine facts in which this grid differs from the others."""
+    """Tables 3.2-3.5, the extended table and the continual-learning metrics (SPEC §6) of one
+    grid, computed from its saved runs, its differences from the thesis and its figures;
+    ``own_facts``: the model, evaluation or machine facts in which this grid differs from the
+    others."""
     bdir = out / folder
     b = cfg.biarm
     lines = [f"### BIARM under the `{protocol}` protocol (`{folder}/`)", ""]
@@ -172,6 +173,7 @@ def _biarm_grid(
         ]
     for _name, title, caption, header, rows in report_tables(dict(runs)):
         lines += [f"#### {title}", "", table_markdown(caption, header, rows).strip(), ""]
+    lines += [f"#### {CL_TITLE}", "", continual_markdown(bdir).strip(), ""]
     lines += ["#### Where we differ and why", ""]
     lines += biarm_differences(runs, b.episodes_scale)
     figs = sorted(bdir.glob("*.png"))
