@@ -2,7 +2,8 @@
 
 One :class:`GrnConfig` per run, in sections: ``dynamics`` (§2.1), ``sensors`` (§2.2),
 ``genome`` (§2.3 initialisation and bounds), ``mutation`` (§2.4), ``evolution`` (§2.4),
-``evaluation`` (§2.4 training protocol and §2.5 test), ``env`` and ``open_loop`` (§2.5 control).
+``evaluation`` (§2.4 training protocol and §2.5 test), ``env`` and ``open_loop`` (§2.5 control),
+``cmaes`` (the CMA-ES optimiser) and ``feedforward`` (the evolved linear and MLP policies).
 Unknown keys and bad values raise :class:`~evodevo.errors.ConfigError` naming the key.
 
 >>> cfg = GrnConfig()
@@ -30,6 +31,8 @@ GENOME_BLOCKS = WEIGHT_BLOCKS + PARAMETER_BLOCKS
 """Every block that ``mutation.block_sigma`` and ``mutation.block_p`` may name."""
 KEEP = ("last", "record")
 """Values of ``evolution.keep``: which genome an evolution returns."""
+OPTIMIZERS = ("ga", "cmaes")
+"""Values of ``evolution.optimizer``: the thesis' genetic algorithm, or CMA-ES."""
 DISTANCE_TO = ("nearest", "target")
 """Values of ``evaluation.distance_to``: what the shaped training fitness measures the gripper's
 distance to (the nearest object, read from the simulator; or the target the front-end saw)."""
@@ -44,10 +47,13 @@ __all__ = [
     "EnvConfig",
     "OpenLoopConfig",
     "NeuromodConfig",
+    "CmaesConfig",
+    "FeedForwardConfig",
     "GrnConfig",
     "DISTANCE_AT",
     "DISTANCE_TO",
     "KEEP",
+    "OPTIMIZERS",
     "GENOME_BLOCKS",
     "PARAMETER_BLOCKS",
     "WEIGHT_BLOCKS",
@@ -151,6 +157,11 @@ class GenomeInitConfig:
     theta_bounds: tuple[float, float] = doc((0.1, 1.0), "bounds of the thresholds theta")
     delta_bounds: tuple[float, float] = doc((0.05, 1.0), "bounds of the decay rates delta")
     alpha_bounds: tuple[float, float] = doc((0.1, 3.0), "bounds of the interaction strengths")
+    regulation: bool = doc(
+        True,
+        "false: the no-regulation arm, W_r = 0 from initialisation on and never mutated (no "
+        "structural or W_r weight mutation; no W_r coordinates for CMA-ES), in evolution and test",
+    )
 
     def validate(self) -> None:
         for key in ("ws_std", "wr_std", "wm_std", "p_std"):
@@ -221,8 +232,14 @@ class MutationConfig:
 
 @dataclass
 class EvolutionConfig:
-    """The optimiser of Algorithm 3 (SPEC §2.4)."""
+    """The optimiser of Algorithm 3 (SPEC §2.4), or CMA-ES, and the loop both share."""
 
+    optimizer: str = doc(
+        "ga",
+        "ga (Algorithm 3: elites and tournament-selected mutants, the thesis) or cmaes (CMA-ES "
+        "on the genome as a vector, section cmaes; population is its lambda, elite_fraction and "
+        "tournament and the mutation probabilities are not used)",
+    )
     population: int = doc(12, "genomes per generation")
     generations: int = doc(15, "maximum number of generations")
     elite_fraction: float = doc(
@@ -269,6 +286,15 @@ class EvolutionConfig:
         _check_range("final_pick_episodes", self.final_pick_episodes, 0)
         if self.keep not in KEEP:
             raise ConfigError(f"evolution.keep must be one of {list(KEEP)}, got {self.keep!r}")
+        if self.optimizer not in OPTIMIZERS:
+            raise ConfigError(
+                f"evolution.optimizer must be one of {list(OPTIMIZERS)}, got {self.optimizer!r}"
+            )
+        if self.optimizer == "cmaes" and self.population < 2:
+            raise ConfigError(
+                f"evolution.optimizer=cmaes needs population >= 2 (its lambda), got "
+                f"{self.population}"
+            )
         if self.keep == "record" and self.final_pick_episodes > 0:
             raise ConfigError(
                 "evolution.keep=record and final_pick_episodes > 0 both choose the returned "
@@ -380,6 +406,45 @@ class OpenLoopConfig:
 
 
 @dataclass
+class CmaesConfig:
+    """CMA-ES (``evolution.optimizer: cmaes``; ``grn/optimizers/cmaes.py``)."""
+
+    sigma0: float = doc(
+        1.0,
+        "initial step size, in units of each block's mutation std (mutation.block_sigma or "
+        "sigma; open_loop.sigma, feedforward.sigma, neuromod.sigma): 1 = the GA's mutation step "
+        "on every coordinate",
+    )
+    diagonal: bool = doc(
+        True,
+        "separable CMA-ES: a diagonal covariance (linear time and memory; with ~1,200 GRN "
+        "coordinates a full covariance learns ~2/N^2 per generation); false: full covariance",
+    )
+
+    def validate(self) -> None:
+        if not self.sigma0 > 0:
+            raise ConfigError(f"cmaes.sigma0={self.sigma0!r} must be positive")
+
+
+@dataclass
+class FeedForwardConfig:
+    """The evolved feed-forward policies (``controller: linear | mlp``; ``grn/feedforward.py``)."""
+
+    hidden: int = doc(16, "tanh units of the MLP's hidden layer (controller: mlp)")
+    init_std: float = doc(0.5, "weights and biases ~ N(0, init_std^2) at init")
+    p_mutate: float = doc(
+        1.0, "GA: probability, per array (weights, biases), that an offspring's array is perturbed"
+    )
+    sigma: float = doc(0.1, "std of the GA's perturbation; CMA-ES's coordinate scale")
+
+    def validate(self) -> None:
+        _check_range("hidden", self.hidden, 1)
+        _check_range("init_std", self.init_std, 0.0)
+        _check_range("p_mutate", self.p_mutate, 0.0, 1.0)
+        _check_range("sigma", self.sigma, 0.0)
+
+
+@dataclass
 class NeuromodConfig:
     """The neuromodulated GRN of SPEC §5 (thesis Eq. 5.1–5.4, modulators by Eq. 3.1 and 3.5).
 
@@ -446,8 +511,8 @@ class GrnConfig:
     seed: int = doc(0, "run seed: encoder weights, genomes, episode seeds, noise")
     controller: str = doc(
         "plain",
-        "controller kind: plain | neuromodulated | open_loop | a registered name | "
-        "'module:attr' of a ControllerKind",
+        "controller kind: plain | neuromodulated | open_loop | linear | mlp | a registered "
+        "name | 'module:attr' of a ControllerKind",
     )
     dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
     sensors: SensorConfig = field(default_factory=SensorConfig)
@@ -458,6 +523,8 @@ class GrnConfig:
     env: EnvConfig = field(default_factory=EnvConfig)
     open_loop: OpenLoopConfig = field(default_factory=OpenLoopConfig)
     neuromod: NeuromodConfig = field(default_factory=NeuromodConfig)
+    cmaes: CmaesConfig = field(default_factory=CmaesConfig)
+    feedforward: FeedForwardConfig = field(default_factory=FeedForwardConfig)
 
     def validate(self) -> None:
         if not self.controller:

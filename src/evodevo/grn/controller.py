@@ -30,15 +30,17 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from evodevo.errors import EvodevoError
+from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.grn.config import GENOME_BLOCKS
 from evodevo.grn.dynamics import expression_step, motor_output
 from evodevo.grn.encoder import sensor_vector
 from evodevo.grn.genome import GrnGenome, init_genome, stack_genomes
-from evodevo.grn.mutation import mutate_genome
+from evodevo.grn.mutation import clip_to_bounds, mutate_genome
 
 __all__ = [
     "Policy",
     "ControllerKind",
+    "VectorSearchable",
     "GrnState",
     "PlainGrnController",
     "ZeroPolicy",
@@ -110,6 +112,20 @@ class ControllerKind(Policy, Protocol):
         ...
 
 
+@runtime_checkable
+class VectorSearchable(Protocol):
+    """A controller kind whose genome an optimiser over R^N can search (CMA-ES)."""
+
+    def evolvable(self, genome: Any) -> dict[str, tuple[np.ndarray, float]]:
+        """Per array of ``genome.arrays()`` that evolves: (boolean mask of the entries that
+        evolve, the scale of one step); arrays left out keep their value."""
+        ...
+
+    def repair(self, genome: Any) -> Any:
+        """``genome`` brought into its bounds (in place); returns it."""
+        ...
+
+
 @dataclass
 class GrnState:
     """Batched runtime state of the plain GRN: stacked genomes and expression x (B, n)."""
@@ -147,7 +163,7 @@ class PlainGrnController:
         return mutate_genome(genome, self.config, rng)
 
     def load_genome(self, path: str | Path) -> GrnGenome:
-        return GrnGenome.load(
+        g = GrnGenome.load(
             path,
             self.n_sensors,
             self.n_actions,
@@ -155,6 +171,8 @@ class PlainGrnController:
             frontend=self.sensors.encoder,
             feature_dim=self.sensors.feature_dim,
         )
+        self.check_regulation(g.W_r, str(path))
+        return g
 
     def connections(self, genome: GrnGenome) -> int:
         return genome.connections()
@@ -162,7 +180,48 @@ class PlainGrnController:
     def genome_from_arrays(self, arrays: dict[str, np.ndarray]) -> GrnGenome:
         g = GrnGenome(**{n: arrays[n] for n in GrnGenome.names()})
         g.check(self.n_sensors, self.n_actions, self.sensors.n_visual)
+        self.check_regulation(g.W_r)
         return g
+
+    def check_regulation(self, W_r: np.ndarray, where: str = "genome") -> None:
+        """With ``genome.regulation: false`` a genome must have no regulatory connection."""
+        if not self.config.genome.regulation and np.any(W_r != 0.0):
+            raise CheckpointError(
+                f"{where}: W_r has {int(np.count_nonzero(W_r))} regulatory connections but this "
+                "config has genome.regulation: false (the no-regulation arm); use a config "
+                "with regulation"
+            )
+
+    def evolvable(self, genome: GrnGenome) -> dict[str, tuple[np.ndarray, float]]:
+        """The entries an optimiser over R^N moves (:class:`VectorSearchable`).
+
+        Every block with a non-zero mutation probability and std (``mutation.block_p``,
+        ``block_sigma``), at that std; of W_r only the present connections (its sparsity
+        pattern stays the genome's; none with ``genome.regulation: false``); of W_s not the rows
+        that always read zeros (the visual rows when ``sensors.blind``, the proprioceptive rows
+        when ``sensors.proprio`` is false), and no P when blind.
+        """
+        m, n_v = self.config.mutation, self.sensors.n_visual
+        out: dict[str, tuple[np.ndarray, float]] = {}
+        arrays = genome.arrays()
+        for name in GENOME_BLOCKS:
+            if m.p_of(name) <= 0.0 or m.sigma_of(name) <= 0.0:
+                continue
+            a = np.asarray(arrays[name])
+            mask = np.ones(a.shape, dtype=bool)
+            if name == "W_r":
+                mask = a != 0.0
+            elif name == "W_s":
+                mask[:n_v] = not self.sensors.blind
+                mask[n_v:] = bool(self.sensors.proprio)
+            elif name == "P" and self.sensors.blind:
+                continue
+            out[name] = (mask, m.sigma_of(name))
+        return out
+
+    def repair(self, genome: GrnGenome) -> GrnGenome:
+        """Clip theta, delta and alpha to their bounds (in place)."""
+        return clip_to_bounds(genome, self.config)
 
     def expression_noise(self, rngs: Sequence[np.random.Generator], n_genes: int) -> np.ndarray:
         """Expression noise eta (len(rngs), n) for one more Euler substep, per slot generator."""
@@ -335,6 +394,8 @@ _REGISTRY: dict[str, Callable[..., Any] | str] = {
     "plain": PlainGrnController,
     "neuromodulated": "evodevo.grn.neuromodulated:NeuromodGrnController",
     "open_loop": "evodevo.grn.open_loop:OpenLoopController",
+    "linear": "evodevo.grn.feedforward:LinearController",
+    "mlp": "evodevo.grn.feedforward:MlpController",
 }
 
 

@@ -1,18 +1,21 @@
-"""The optimiser of Algorithm 3 (SPEC §2.4), with hooks for progress, checkpoints and early stop.
+"""The evolution loop of Algorithm 3 (SPEC §2.4), shared by every optimiser, with hooks.
 
-Each generation: every genome (elites included) is evaluated on the SAME fresh episodes
-(common random numbers; 70 % clean, 30 % with visual-feature noise), scored with Eq. 4.6 and
-ranked; if the best genome's training success reaches ``early_stop_success`` it is retested on
+Each generation (ask-evaluate-tell): the optimiser's population (``evolution.optimizer``:
+the thesis' GA, elites included, or CMA-ES's samples; :mod:`evodevo.grn.optimizers`) is
+evaluated on the SAME fresh episodes (common random numbers; 70 % clean, 30 % with
+visual-feature noise), scored with Eq. 4.6 (plus the shaped term, if configured) and ranked; if
+the best genome's training success reaches ``early_stop_success`` it is retested on
 ``retest_episodes`` new episodes (same protocol) and evolution stops when the retest reaches
-``retest_success``. Otherwise the best ``elites`` pass unchanged and the rest of the next
-population are mutated copies of tournament-picked parents.
+``retest_success``. Otherwise the optimiser is told the fitness and asked for the next
+population (for the GA: the best ``elites`` unchanged and mutated copies of tournament-picked
+parents).
 
-The optimiser knows nothing of GRNs: the controller kind (``init_genome``, ``mutate``) and the
-:class:`~evodevo.grn.evaluator.Evaluator` are passed in, so the open-loop control and later kinds
-reuse this loop. :func:`evolve_run` wires it to a run directory: ``encoder.pt``,
-``config.json``, ``history.csv``, ``best_genome.npz``, ``summary.json`` and an atomic
-checkpoint after every generation (population, RNG state, history) so ``resume`` continues
-exactly where an interrupted run stopped.
+The loop knows nothing of GRNs: the controller kind, the optimiser and the
+:class:`~evodevo.grn.evaluator.Evaluator` are separate pieces, so the open-loop control, the
+feed-forward arms and later kinds reuse it. :func:`evolve_run` wires it to a run directory:
+``encoder.pt``, ``config.json``, ``history.csv``, ``best_genome.npz``, ``summary.json`` and an
+atomic checkpoint after every generation (population, optimiser state as arrays and JSON,
+history) so ``resume`` continues exactly where an interrupted run stopped.
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ from evodevo.grn.evaluator import Episode, Evaluator, genome_key
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
-from evodevo.grn.selection import rank, tournament
+from evodevo.grn.optimizers import make_optimizer
+from evodevo.grn.selection import rank
 from evodevo.runs import RunDir, machine_info, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
@@ -54,7 +58,7 @@ __all__ = [
 ]
 
 EVOLUTION_KEY = 2
-"""Seed stream of the optimiser (initial genomes, mutations, tournaments)."""
+"""Seed stream of the optimiser (initial genomes, mutations, tournaments; CMA-ES's samples)."""
 EPISODE_KEY = 3
 """Seed stream of the training episodes (per generation)."""
 RETEST_KEY = 4
@@ -62,6 +66,8 @@ RETEST_KEY = 4
 FINAL_PICK_KEY = 5
 """Seed stream of the final-pick episodes (``evolution.final_pick_episodes``)."""
 CHECKPOINT_FILE = "checkpoint.npz"
+OPTIMIZER_PREFIX = "optimizer__"
+"""Checkpoint arrays of the optimiser's state (none for the GA)."""
 
 
 def training_episodes(
@@ -132,12 +138,12 @@ class ProgressPrinter(Hook):
 
 
 class Evolution:
-    """Algorithm 3 over any controller kind.
+    """The loop of Algorithm 3 over any controller kind and optimiser.
 
     Args:
         config: a :class:`~evodevo.grn.config.GrnConfig`.
         controller: the controller kind (``init_genome``, ``mutate``, ``connections``,
-            ``genome_from_arrays``).
+            ``genome_from_arrays``; ``evolvable`` and ``repair`` for CMA-ES).
         evaluator: scores genomes on episodes.
         hooks: callbacks.
     """
@@ -150,9 +156,9 @@ class Evolution:
         self.evaluator = evaluator
         self.hooks = list(hooks)
         self.rng = np_rng(config.seed, EVOLUTION_KEY)
-        self.population = [
-            controller.init_genome(self.rng) for _ in range(config.evolution.population)
-        ]
+        self.optimizer = make_optimizer(config, controller, self.rng)
+        self.population: list[Any] = self.optimizer.ask()
+        """The genomes the next :meth:`step` evaluates."""
         self.generation = 0
         self.history: list[GenerationRecord] = []
         self.best_genome: Any = None
@@ -224,14 +230,8 @@ class Evolution:
         # longer run would evaluate next, so extending the run (--resume with more
         # generations) continues exactly as if it had been started with them
         if not self.stopped_early:
-            elites = [self.population[i] for i in order[: evo_cfg.elites]]
-            children = [
-                self.controller.mutate(
-                    self.population[tournament(fit, evo_cfg.tournament, self.rng)], self.rng
-                )
-                for _ in range(evo_cfg.population - len(elites))
-            ]
-            self.population = elites + children
+            self.optimizer.tell(self.population, fit, order)
+            self.population = self.optimizer.ask()
         eval_s = time.perf_counter() - t0
         self.elapsed_s += eval_s
         self.episodes_run += n_eps
@@ -304,16 +304,18 @@ class Evolution:
     def pick_final(self) -> dict[str, Any]:
         """Re-select the final genome among the last generation's elites (SPEC §2.4 budget).
 
-        The population bred after the last generation starts with its ``elites`` best genomes,
-        best first; each is scored on the same ``final_pick_episodes`` fresh clean episodes
-        (seed stream :data:`FINAL_PICK_KEY`, disjoint from the generations' and the test's) and
-        the one with the most successes becomes :attr:`best_genome` (the better rank on a tie).
+        The optimiser's ``elites`` finalists (the GA: the population bred after the last
+        generation starts with its ``elites`` best genomes, best first; CMA-ES: the genome at
+        its mean, then the last generation's best) are each scored on the same
+        ``final_pick_episodes`` fresh clean episodes (seed stream :data:`FINAL_PICK_KEY`,
+        disjoint from the generations' and the test's) and the one with the most successes
+        becomes :attr:`best_genome` (the earlier finalist on a tie).
         Measured on the Kuka vision preset's budget it gained nothing: the elites were too alike
         for a few dozen binary outcomes to tell apart (docs/results/grn.md, "The final pick").
         """
         evo_cfg = self.config.evolution
         t0 = time.perf_counter()
-        candidates = self.population[: evo_cfg.elites]
+        candidates = self.optimizer.finalists(evo_cfg.elites)
         episodes = training_episodes(
             self.config.seed, FINAL_PICK_KEY, self.generation, evo_cfg.final_pick_episodes, 0.0
         )
@@ -336,9 +338,17 @@ class Evolution:
         return self.final_pick
 
     def run(self) -> Evolution:
-        """Step until the budget is spent or the early stop fires; then the final pick."""
+        """Step until the budget is spent or the early stop fires; then :meth:`finish`."""
         while not self.done:
             self.step()
+        return self.finish()
+
+    def finish(self) -> Evolution:
+        """Choose the returned genome (``evolution.keep``, the final pick); call the end hooks.
+
+        :meth:`run` calls it once the budget is spent; a caller stepping the loop itself (e.g.
+        against a wall-clock budget) calls it when it stops.
+        """
         if self.config.evolution.keep == "record" and self.champion is not None:
             self.best_genome = self.champion
         if (
@@ -364,7 +374,12 @@ class Evolution:
         if self.champion is not None:
             for name, a in self.champion.arrays().items():
                 arrays[f"champion__{name}"] = a
+        opt_arrays, opt_meta = self.optimizer.state()
+        for name, a in opt_arrays.items():
+            arrays[f"{OPTIMIZER_PREFIX}{name}"] = a
         meta = {
+            **opt_meta,  # the GA: rng_state, as before optimisers were pluggable
+            "optimizer": self.optimizer.name,
             "controller": self.config.controller,
             "seed": self.config.seed,
             "population_size": len(self.population),
@@ -374,7 +389,6 @@ class Evolution:
             "episodes_run": self.episodes_run,
             "env_steps": self.env_steps,
             "episodes_saved": self.episodes_saved,
-            "rng_state": self.rng.bit_generator.state,
             "history": [asdict(r) for r in self.history],
             "bred": True,
             "reevaluated": self.reevaluated,
@@ -397,7 +411,19 @@ class Evolution:
             sub = {k.split("__", 1)[1]: v for k, v in arrays.items() if k.startswith(prefix + "__")}
             return self.controller.genome_from_arrays(sub) if sub else None
 
+        saved_optimizer = meta.get("optimizer", "ga")  # written before CMA-ES: the GA
+        if saved_optimizer != self.optimizer.name:
+            raise CheckpointError(
+                f"{str(path)!r} was written by evolution.optimizer {saved_optimizer!r}, this "
+                f"config uses {self.optimizer.name!r}; resume with the optimizer it started with"
+            )
         self.population = [genome(f"pop{i}") for i in range(int(meta["population_size"]))]
+        opt_arrays = {
+            k[len(OPTIMIZER_PREFIX) :]: v
+            for k, v in arrays.items()
+            if k.startswith(OPTIMIZER_PREFIX)
+        }
+        self.optimizer.load_state(opt_arrays, meta, self.population)
         self.best_genome = genome("best")
         self.generation = int(meta["generation"])
         self.stopped_early = bool(meta["stopped_early"])
@@ -405,7 +431,6 @@ class Evolution:
         self.episodes_run = int(meta["episodes_run"])
         self.env_steps = int(meta["env_steps"])
         self.episodes_saved = int(meta.get("episodes_saved", 0))
-        self.rng.bit_generator.state = meta["rng_state"]
         self.history = [GenerationRecord(**r) for r in meta["history"]]
         # checkpoints written before 2026-12-05 did not breed after the last generation: an
         # extension of such a run first re-evaluates that population, then breeds
@@ -470,6 +495,7 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
     return {
         "kind": "grn_evolve",
         "controller": evo.config.controller,
+        "optimizer": evo.config.evolution.optimizer,
         "blind": evo.config.sensors.blind,
         "seed": evo.config.seed,
         "fitness_history": [r.best_fitness for r in h],

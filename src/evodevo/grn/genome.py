@@ -226,6 +226,9 @@ def check_frontend(header: Mapping[str, Any], frontend: str, path: str | Path) -
 def init_genome(config: Any, n_actions: int, rng: np.random.Generator) -> GrnGenome:
     """Draw a genome with the SPEC §2.3 initialisation.
 
+    With ``genome.regulation: false`` W_r is zeros; every other array is drawn as with
+    regulation, from the same generator in the same order (so the arms share them).
+
     Args:
         config: a :class:`~evodevo.grn.config.GrnConfig`.
         n_actions: action dimensions A (3 for the Kuka env with its height hack).
@@ -237,6 +240,8 @@ def init_genome(config: Any, n_actions: int, rng: np.random.Generator) -> GrnGen
     W_s = rng.normal(0.0, gi.ws_std, (n_s, n))
     mask = rng.random((n, n)) < gi.wr_density
     W_r = np.where(mask, rng.normal(0.0, gi.wr_std, (n, n)), 0.0)
+    if not gi.regulation:  # the no-regulation arm: the same draws, W_r = 0
+        W_r = np.zeros((n, n))
     W_m = rng.normal(0.0, gi.wm_std, (n, n_actions))
     theta = rng.uniform(gi.theta_init[0], gi.theta_init[1], n)
     delta = rng.uniform(gi.delta_init[0], gi.delta_init[1], n)

@@ -8,7 +8,9 @@
 * parameter, ``p_param`` per vector (theta, delta, alpha): add N(0, sigma²), clip to the bounds.
 
 ``block_sigma`` and ``block_p`` override sigma and the probabilities for named blocks (ours, not
-the thesis'; empty by default, which draws the same numbers as before).
+the thesis'; empty by default, which draws the same numbers as before). With
+``genome.regulation: false`` (the no-regulation arm) W_r is all zeros and neither structural nor
+W_r weight mutation happens (no draw is made for them), so it stays zero.
 
 >>> import numpy as np
 >>> from evodevo.grn.config import GrnConfig
@@ -48,8 +50,9 @@ def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> G
         rng: the evolution's generator; every decision and draw comes from it.
     """
     m = config.mutation
+    regulation = bool(config.genome.regulation)
     child = parent.copy()
-    if rng.random() < m.p_struct:
+    if regulation and rng.random() < m.p_struct:
         n = child.W_r.shape[0]
         k, i = int(rng.integers(n)), int(rng.integers(n))
         if child.W_r[k, i] != 0.0:
@@ -60,6 +63,8 @@ def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> G
                 value = float(rng.normal(0.0, m.struct_std)) if m.struct_std > 0 else 1e-3
             child.W_r[k, i] = value
     for name in WEIGHT_BLOCKS:
+        if name == "W_r" and not regulation:
+            continue
         if rng.random() < m.p_of(name):
             w = getattr(child, name)
             noise = rng.normal(0.0, m.sigma_of(name), w.shape)

@@ -281,6 +281,21 @@ class NeuromodGrnController(PlainGrnController):
         self._check(g)
         return g
 
+    def evolvable(self, genome: NeuromodGrnGenome) -> dict[str, tuple[np.ndarray, float]]:  # type: ignore[override]  # a kind's genome type is its own
+        """The plain blocks as for the plain GRN, and every entry of the modulator networks
+        and gamma at the scale ``neuromod.sigma`` (CMA-ES)."""
+        out = super().evolvable(genome.base)
+        for name in _EXTRA:
+            a = getattr(genome, name)
+            out[name] = (np.ones(a.shape, dtype=bool), self.mod.sigma)
+        return out
+
+    def repair(self, genome: NeuromodGrnGenome) -> NeuromodGrnGenome:  # type: ignore[override]  # a kind's genome type is its own
+        """Clip theta, delta, alpha and gamma to their bounds (in place)."""
+        super().repair(genome.base)
+        clip_gamma(genome.gamma, self.config)
+        return genome
+
     # -- runtime ------------------------------------------------------------------------------
     def reset_state(self, genomes: Sequence[NeuromodGrnGenome]) -> NeuromodState:  # type: ignore[override]
         for g in genomes:

@@ -100,6 +100,15 @@ class OpenLoopController:
     def genome_from_arrays(self, arrays: dict[str, np.ndarray]) -> OpenLoopGenome:
         return OpenLoopGenome(np.asarray(arrays["actions"]))
 
+    def evolvable(self, genome: OpenLoopGenome) -> dict[str, tuple[np.ndarray, float]]:
+        """Every action moves, at the scale ``open_loop.sigma`` (CMA-ES)."""
+        return {"actions": (np.ones(genome.actions.shape, dtype=bool), self.cfg.sigma)}
+
+    def repair(self, genome: OpenLoopGenome) -> OpenLoopGenome:
+        """Clip the actions to [-1, 1] (in place)."""
+        np.clip(genome.actions, -1.0, 1.0, out=genome.actions)
+        return genome
+
     def reset_state(self, genomes: Sequence[OpenLoopGenome]) -> OpenLoopState:
         return OpenLoopState(np.stack([g.actions for g in genomes]), np.zeros(len(genomes), int))
 
