@@ -19,6 +19,7 @@ from evodevo.cli.common import (
     BACKEND_HELP,
     OLD_EPISODES_HELP,
     OLD_SEED_HELP,
+    SET_HELP,
     TEST_EPISODES_HELP,
     TEST_SEED_HELP,
     add_evaluate_command,
@@ -27,6 +28,7 @@ from evodevo.cli.common import (
     format_rate,
     parse_list,
     renamed,
+    set_overrides,
 )
 from evodevo.errors import EvodevoError
 
@@ -49,8 +51,11 @@ def _overrides(
     open_loop: bool,
     final_pick: int | None = None,
     keep: str | None = None,
+    optimizer: str | None = None,
 ) -> dict[str, Any]:
     out: dict[str, Any] = {}
+    if optimizer is not None:
+        out.setdefault("evolution", {})["optimizer"] = optimizer
     if keep is not None:
         out.setdefault("evolution", {})["keep"] = keep
     if final_pick is not None:
@@ -143,6 +148,11 @@ def evolve(
         "champion by lifetime success record; evolution.keep) [the config's: record in the "
         "vision preset, last in the thesis preset].",
     ),
+    optimizer: str | None = typer.Option(
+        None,
+        help="ga (Algorithm 3, the thesis) or cmaes (CMA-ES on the genome as a vector; section "
+        "cmaes); evolution.optimizer [the config's: ga].",
+    ),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
     seed: int | None = typer.Option(None, help="Run seed [0]."),
     config: Path | None = typer.Option(
@@ -151,6 +161,7 @@ def evolve(
         help="YAML config; keys it leaves out take the thesis defaults (configs/grn.yaml). "
         "Without it, --preset.",
     ),
+    set_: list[str] | None = typer.Option(None, "--set", help=SET_HELP),
     preset: str = typer.Option(
         "vision",
         help="Without --config: vision (configs/grn_vision.yaml: blob front-end, substeps, shaped "
@@ -162,7 +173,9 @@ def evolve(
         help="Any Gymnasium env with a Box observation (a vector or an RGB image) and Box "
         "actions; sensor and action sizes come from its spaces [the config's env.id].",
     ),
-    controller: str | None = typer.Option(None, help="Controller kind [plain]."),
+    controller: str | None = typer.Option(
+        None, help="Controller kind: plain, neuromodulated, open_loop, linear, mlp [plain]."
+    ),
     blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
     open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
     resume: bool = typer.Option(
@@ -188,8 +201,20 @@ def evolve(
     set_single_thread()
     check_seed("--seed", seed)
     check_backend(backend, address, workers)
-    ov = _overrides(
-        population, generations, episodes, seed, controller, blind, open_loop, final_pick, keep
+    ov = merge(
+        _overrides(
+            population,
+            generations,
+            episodes,
+            seed,
+            controller,
+            blind,
+            open_loop,
+            final_pick,
+            keep,
+            optimizer,
+        ),
+        set_overrides(set_),
     )
     if resume and not (out / "config.json").is_file():
         where = "does not exist" if not out.exists() else "holds no run (no config.json)"

@@ -5,9 +5,11 @@ somebody may hand you is data). :func:`dump_state` walks the strategy's own attr
 those of the ``cma`` objects it holds (the sampler with the covariance matrix and its
 eigen-decomposition, the step-size adaptation with its path, the recombination parameters, the
 fitness history), and writes every *data* value: numeric arrays go to a dict of arrays (saved
-in the run's ``.npz``), numbers, strings, ``None`` and lists, tuples and dicts of them to a JSON
-tree. Callables, options, the logger, the timer and the caches of asked solutions (rebuilt by
-the next ``ask``) are left out; the options are rebuilt from the run's config.
+in the run's ``.npz``), numbers, strings, ``None``, ranges and lists, tuples and dicts of them
+(with number, string or tuple keys: the archives of asked and injected solutions, whose
+mirrored samples ``tell`` weighs differently) to a JSON tree. Functions, options, the logger and
+the timer are left out; the options are rebuilt from the run's config. Any other value it
+cannot write is an error when the checkpoint is written, never a silently incomplete state.
 
 :func:`restore_state` writes such a tree back into a *freshly constructed* strategy made with
 the same options, attribute by attribute. It only ever assigns data — a number, a string, a
@@ -43,12 +45,21 @@ from evodevo.errors import CheckpointError
 
 __all__ = ["dump_state", "restore_state", "SKIPPED_ATTRIBUTES", "SKIPPED_TYPES"]
 
-SKIPPED_ATTRIBUTES = frozenset({"opts", "inopts", "inputargs", "logger", "timer", "callbackstop"})
-"""Attributes never saved: options (rebuilt from the config, and holding callables), the
-logger and the wall-clock timer."""
-SKIPPED_TYPES = frozenset({"SolutionDict", "_CMASolutionDict_functional", "CMAOptions"})
-"""``cma`` types never saved: the caches that map asked solutions to their genotypes (``tell``
-finds a solution missing from them by its values, which are the genotype here) and options."""
+SKIPPED_ATTRIBUTES = frozenset(
+    {
+        "opts",
+        "inopts",
+        "inputargs",
+        "logger",
+        "timer",
+        "callbackstop",
+        "RoundIntegerVariables.params",
+    }
+)
+"""Attributes never saved, by name or ``Class.name``: options (rebuilt from the config, and
+holding callables), the logger, the wall-clock timer, the integer-variable settings (options)."""
+SKIPPED_TYPES = frozenset({"CMAOptions"})
+"""``cma`` types never saved: options."""
 _NUMERIC = "biuf"
 _SCALARS = (bool, int, float, str, type(None))
 
@@ -86,29 +97,51 @@ def _encode(value: Any, path: str, arrays: dict[str, np.ndarray], seen: dict[int
         if any(i is _SKIP for i in items):
             return _SKIP
         return {"tuple" if isinstance(value, tuple) else "list": items}
-    if type(value) is dict:
-        if not all(isinstance(k, str) for k in value):
-            return _SKIP
+    if type(value) is range:
+        return {"range": [value.start, value.stop, value.step]}
+    if type(value) is dict and all(isinstance(k, str) for k in value):
         entries = {k: _encode(v, f"{path}[{k}]", arrays, seen) for k, v in value.items()}
         if any(v is _SKIP for v in entries.values()):
             return _SKIP
         return {"dict": entries}
-    if _is_cma(value) and type(value).__name__ not in SKIPPED_TYPES and hasattr(value, "__dict__"):
+    if type(value) is dict:  # number or tuple keys (solution archives, memos)
+        pairs = [
+            [_encode(k, f"{path}<key>", arrays, seen), _encode(v, f"{path}[{k!r}]", arrays, seen)]
+            for k, v in value.items()
+        ]
+        if any(k is _SKIP or v is _SKIP or "array" in k for k, v in pairs):
+            return _SKIP
+        return {"items": pairs}
+    if _is_cma(value) and type(value).__name__ in SKIPPED_TYPES:
+        return _SKIP
+    if _is_cma(value) and hasattr(value, "__dict__"):
         if id(value) in seen:
             return {"alias_object": seen[id(value)]}
         seen[id(value)] = path
         return {"object": type(value).__qualname__, "attrs": _attributes(value, path, arrays, seen)}
-    return _SKIP
+    if callable(value):  # functions, methods, classes: parts of the options, not state
+        return _SKIP
+    raise CheckpointError(
+        f"CMA-ES state: {path} is a {type(value).__qualname__}, which evodevo cannot save as "
+        "data; this cma version keeps state evodevo does not know (use the cma version in "
+        "pyproject.toml)"
+    )
 
 
 def _attributes(
     obj: Any, path: str, arrays: dict[str, np.ndarray], seen: dict[int, str]
 ) -> dict[str, Any]:
     out = {}
+    cls = type(obj).__name__
     for name, value in vars(obj).items():
-        if name in SKIPPED_ATTRIBUTES:
+        if name in SKIPPED_ATTRIBUTES or f"{cls}.{name}" in SKIPPED_ATTRIBUTES:
             continue
         node = _encode(value, f"{path}.{name}", arrays, seen)
+        if node is _SKIP and not callable(value) and not _is_cma(value):
+            raise CheckpointError(
+                f"CMA-ES state: {path}.{name} holds a function or an object among its data; "
+                "evodevo cannot save it (use the cma version in pyproject.toml)"
+            )
         if node is not _SKIP:
             out[name] = node
     return out
@@ -126,8 +159,14 @@ def dump_state(es: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     return tree, arrays
 
 
+def _hashable_data(key: Any) -> bool:
+    if isinstance(key, tuple):
+        return all(_hashable_data(k) for k in key)
+    return isinstance(key, (*_SCALARS, np.generic)) and not isinstance(key, np.ndarray)
+
+
 def _is_data(value: Any) -> bool:
-    return isinstance(value, (np.ndarray, np.generic, *_SCALARS, list, tuple, dict)) and (
+    return isinstance(value, (np.ndarray, np.generic, *_SCALARS, list, tuple, dict, range)) and (
         not _is_cma(value) or type(value) in (list, tuple, dict)
     )
 
@@ -141,7 +180,7 @@ def _kind(value: Any) -> str:
         return "number"
     if isinstance(value, str):
         return "str"
-    if isinstance(value, (list, tuple)):
+    if isinstance(value, (list, tuple, range)):
         return "sequence"
     if isinstance(value, dict):
         return "dict"
@@ -172,12 +211,29 @@ def _decode(node: Any, arrays: Mapping[str, np.ndarray], restored: dict[str, Any
         if not isinstance(node["value"], _SCALARS):
             raise CheckpointError(f"CMA-ES state: {at} is not a plain value")
         return node["value"]
+    if "range" in node:
+        bounds = node["range"]
+        if not (isinstance(bounds, list) and len(bounds) == 3):
+            raise CheckpointError(f"CMA-ES state: {at} is not a range")
+        if not all(isinstance(b, int) and not isinstance(b, bool) for b in bounds):
+            raise CheckpointError(f"CMA-ES state: {at} is not a range")
+        return range(*bounds)
     for tag, kind in (("list", list), ("tuple", tuple)):
         if tag in node and isinstance(node[tag], list):
             items = [_decode(v, arrays, restored, f"{at}[{i}]") for i, v in enumerate(node[tag])]
             return kind(items)
     if "dict" in node and isinstance(node["dict"], dict):
         return {str(k): _decode(v, arrays, restored, f"{at}[{k}]") for k, v in node["dict"].items()}
+    if "items" in node and isinstance(node["items"], list):
+        out: dict[Any, Any] = {}
+        for pair in node["items"]:
+            if not (isinstance(pair, list) and len(pair) == 2):
+                raise CheckpointError(f"CMA-ES state: {at} holds a malformed entry")
+            key = _decode(pair[0], arrays, restored, f"{at}<key>")
+            if not _hashable_data(key):
+                raise CheckpointError(f"CMA-ES state: {at} has a key that is not a plain value")
+            out[key] = _decode(pair[1], arrays, restored, f"{at}[{key!r}]")
+        return out
     raise CheckpointError(f"CMA-ES state: {at} has an unknown entry {sorted(node)!r}")
 
 
