@@ -182,12 +182,19 @@ def test_table_of_hand_worked_runs(tmp_path):
     assert "`evodevo biarm compare --variants single --seeds 0-1 --out DIR`" in md
     assert "seeds 1000000..1000001 (the test range, SPEC §6)" in md
     assert "| pnn | MountainCar-v0 | 2 | -153.0 [-153.0, -153.0] | 0.500 [0.500, 0.500] |" in md
-    assert "| 45.00 [45.00, 45.00] | — (threshold -110) |" in md  # 5 episodes < window 20
+    assert "| 45.00 [45.00, 45.00] | — (0/2 runs; threshold -110) |" in md  # 5 episodes < 20
     assert "| pnn | CartPole-v1 | 2 |" in md and "| — (last task) |" in md
     assert "| pnn | 2 | -0.500 [-0.500, -0.500] |" in md  # BWT
     rows = list(csv.DictReader(table.csv().splitlines()))
     bwt = next(r for r in rows if r["metric"] == "backward_transfer")
     assert (bwt["env_id"], float(bwt["mean"]), bwt["runs"]) == ("sequence", -0.5, "2")
+
+
+def test_one_run_per_variant_has_no_interval_and_no_paired_verdict(tmp_path):
+    grid = {v: {0: _run(tmp_path / v, v, 0, *PNN)} for v in ("pnn", "biarm")}
+    md = continual_table(grid_metrics(grid), reps=50).markdown()
+    assert "| biarm | MountainCar-v0 | 1 | -153.0 | 0.500 | 45.00 | — (0/1 runs;" in md
+    assert "need at least 2 seeds that another variant shares with pnn; this grid has 1." in md
 
 
 TINY = BiarmConfig(
@@ -254,3 +261,30 @@ def test_a_shortened_step_limit_has_no_normalised_metrics(tmp_path):
     assert m["pnn"][0].backward_transfer is None
     md = continual_table(m, reps=50).markdown()
     assert "— (no normalisation anchors for this step limit)" in md
+
+
+def test_reproduce_report_shows_the_metrics_and_the_quick_budget_trains_the_reference(tmp_path):
+    from evodevo.config import from_dict
+    from evodevo.reproduce.budget import ReproduceConfig, preset
+    from evodevo.reproduce.report import write_report as reproduce_report
+
+    assert {"pnn", "single"} <= set(preset("quick").biarm.variants)  # FT in `make run`'s report
+    for v in ("pnn", "single"):
+        for s in (0, 1):
+            _run(tmp_path / "biarm" / "runs" / f"{v}__s{s}", v, s, *(PNN if v == "pnn" else SINGLE))
+    cfg = from_dict(
+        ReproduceConfig,
+        {
+            "name": "tiny",
+            "biarm": {"seeds": "0-1", "variants": ["pnn", "single"], "tasks": list(ENVS)},
+            "grn": {"enabled": False},
+            "kuka": {"enabled": False},
+        },
+    )
+    md = reproduce_report(tmp_path, cfg).read_text()
+    section = md.split(f"#### {CL_TITLE}")[1].split("####")[0]
+    assert (
+        "| pnn | MountainCar-v0 | 2 | -153.0 [-153.0, -153.0] | 0.500 [0.500, 0.500] | 0.375"
+        in section
+    )
+    assert "| FT | MountainCar-v0 | single − pnn | 2 | -0.375 [-0.375, -0.375] |" in section

@@ -618,6 +618,7 @@ class ContinualTable:
         seeds: Every run seed of the grid.
         window: Episodes of the rolling mean behind the episodes to threshold.
         reps: Bootstrap resamples of every interval.
+        shared_seeds: The most seeds any variant shares with :data:`CL_BASELINE`.
     """
 
     records: list[dict[str, Any]]
@@ -627,6 +628,7 @@ class ContinualTable:
     seeds: list[int]
     window: int
     reps: int
+    shared_seeds: int = 0
 
     def _record(self, variant: str, task: int | str, metric: str) -> dict[str, Any] | None:
         for r in self.records:
@@ -636,11 +638,13 @@ class ContinualTable:
 
     def _cell(self, variant: str, task: int | str, metric: str, digits: int) -> str:
         r = self._record(variant, task, metric)
+        if r is not None and metric == "episodes_to_threshold" and r["runs_with_value"] == 0:
+            return f"— (0/{r['runs']} runs; {r['note']})"
         if r is None or r["runs_with_value"] == 0:
             note = r["note"] if r is not None else ""
             return f"— ({note})" if note else "—"
         est = Estimate(r["mean"], r["ci_low"], r["ci_high"])
-        cell = est.fmt(digits)
+        cell = est.fmt(digits) if r["runs_with_value"] > 1 else f"{est.point:.{digits}f}"
         if metric == "episodes_to_threshold":
             cell += f" ({r['runs_with_value']}/{r['runs']} runs; {r['note']})"
         elif r["runs_with_value"] < r["runs"]:
@@ -685,7 +689,8 @@ class ContinualTable:
             f"episodes to threshold counts training episodes until the mean of the last "
             f"{self.window} returns first reaches the threshold (the task's solved return), mean "
             "over the runs that reached it. Each cell: mean over runs [95 % bootstrap interval "
-            f"of the mean over seeds, rliable, {self.reps:,} resamples]. Returns R: {ranges}.",
+            f"of the mean over seeds, rliable, {self.reps:,} resamples; none from one run]. "
+            f"Returns R: {ranges}.",
             "",
         ]
         if self.has_reference:
@@ -726,7 +731,8 @@ class ContinualTable:
         if not self.comparisons:
             return [
                 f"Paired comparisons against {CL_BASELINE} on {metrics} need at least 2 seeds "
-                f"shared with {CL_BASELINE}; this grid has none.",
+                f"that another variant shares with {CL_BASELINE}; this grid has "
+                f"{self.shared_seeds}.",
                 "",
             ]
         head, rule = Comparison.HEADER.split("\n")
@@ -860,7 +866,11 @@ def continual_table(
         dict.fromkeys(r.eval_seeds for runs in metrics.values() for r in runs.values())
     )
     seeds = sorted({int(s) for runs in metrics.values() for s in runs})
-    return ContinualTable(records, comparisons, has_reference, eval_seeds, seeds, window, reps)
+    base = set(metrics.get(CL_BASELINE, {}))
+    shared = max((len(set(r) & base) for v, r in metrics.items() if v != CL_BASELINE), default=0)
+    return ContinualTable(
+        records, comparisons, has_reference, eval_seeds, seeds, window, reps, shared
+    )
 
 
 def _cl_comparisons(
