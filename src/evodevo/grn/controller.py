@@ -207,6 +207,8 @@ class PlainGrnController:
         for name in GENOME_BLOCKS:
             if m.p_of(name) <= 0.0 or m.sigma_of(name) <= 0.0:
                 continue
+            if name == "W_r" and not self.config.genome.regulation:
+                continue
             a = np.asarray(arrays[name])
             mask = np.ones(a.shape, dtype=bool)
             if name == "W_r":
