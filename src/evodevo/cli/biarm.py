@@ -25,6 +25,15 @@ VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, clamped, finetune, ew
 
 __all__ = ["app"]
 
+_TASKS_HELP = (
+    "Comma-separated Gymnasium ids, each optionally with the environment's own parameters, "
+    "ID[key=value,...], e.g. 'CartPole-v1,LunarLander-v3[gravity=-5]' (default: thesis)."
+)
+_SEQUENCE_HELP = (
+    "A named sequence of related tasks instead of --tasks: cartpole-dynamics, "
+    "cartpole-dynamics-reversed, lunarlander-gravity (evodevo/presets/sequences/)."
+)
+
 app = typer.Typer(
     help="BIARM: neuromodulated progressive networks (SPEC §1).",
     no_args_is_help=True,
@@ -39,13 +48,16 @@ def _load(
     episodes_scale: float | None,
     overrides: list[str] | None = None,
     protocol: str | None = None,
+    sequence: str | None = None,
 ) -> Any:
     """Config from YAML + CLI options; every input error raised here, before training.
 
-    Order: defaults, ``config`` file, ``protocol`` (SPEC §1.6 presets), ``--set``."""
+    Order: defaults, ``config`` file, ``protocol`` (SPEC §1.6 presets), ``--set``, then the
+    tasks of ``--tasks`` or ``--sequence``."""
     import yaml
 
     from evodevo.config import load_config
+    from evodevo.envs.env_ids import split_env_ids
     from evodevo.errors import ConfigError
     from evodevo.neuromod.config import BiarmConfig
     from evodevo.neuromod.tasks import tasks_from_ids
@@ -66,7 +78,11 @@ def _load(
                 f"--episodes-scale {episodes_scale} must be a positive number (e.g. 0.25)"
             )
         extra["episodes_scale"] = episodes_scale
-    ids = parse_list(tasks, "--tasks")
+    if tasks is not None and sequence is not None:
+        raise ConfigError("--tasks and --sequence both name the tasks; give one of them")
+    ids = split_env_ids(tasks) if tasks is not None else None
+    if tasks is not None and not ids:
+        raise ConfigError(f"--tasks {tasks!r} names nothing; give ids or leave --tasks out")
     if protocol is not None:
         from evodevo.neuromod.protocols import apply_protocol
 
@@ -76,6 +92,11 @@ def _load(
         from evodevo.config import replace
 
         cfg = replace(cfg, tasks=tasks_from_ids(cfg, ids))
+    if sequence is not None:
+        from evodevo.config import replace
+        from evodevo.neuromod.sequences import load_sequence
+
+        cfg = replace(cfg, tasks=load_sequence(sequence))
     return cfg
 
 
@@ -115,7 +136,8 @@ def _resume_settings(
 @app.command()
 def train(
     variant: str | None = typer.Option(None, help=f"One of {VARIANT_NAMES} [biarm]."),
-    tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
+    tasks: str | None = typer.Option(None, help=_TASKS_HELP),
+    sequence: str | None = typer.Option(None, help=_SEQUENCE_HELP),
     episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
     seed: int | None = typer.Option(
         None, help="Run seed (every random stream derives from it) [0]."
@@ -158,6 +180,7 @@ def train(
         own = (
             config is not None
             or tasks is not None
+            or sequence is not None
             or episodes_scale is not None
             or bool(set_)
             or protocol is not None
@@ -166,7 +189,7 @@ def train(
     var = get_variant(variant if variant is not None else "biarm")
     seed = 0 if seed is None else seed
     if cfg is None:
-        cfg = _load(config, tasks, episodes_scale, set_, protocol)
+        cfg = _load(config, tasks, episodes_scale, set_, protocol, sequence)
     resolve_tasks(cfg)
     set_single_thread()
     with GracefulStop() as stop:
@@ -254,7 +277,8 @@ def compare(
     ),
     seeds: str = typer.Option("0-4", help="Seeds, e.g. 0-4 or 0,2,5."),
     episodes_scale: float | None = typer.Option(None, help="Multiply every task's episodes."),
-    tasks: str | None = typer.Option(None, help="Comma-separated Gymnasium ids (default: thesis)."),
+    tasks: str | None = typer.Option(None, help=_TASKS_HELP),
+    sequence: str | None = typer.Option(None, help=_SEQUENCE_HELP),
     workers: int = typer.Option(2, help="Parallel runs (worker processes or Ray actors)."),
     config: Path | None = typer.Option(None, help="YAML config."),
     set_: list[str] | None = typer.Option(None, "--set", help=_SET_HELP),
@@ -291,7 +315,7 @@ def compare(
     for v in names:
         get_variant(v)
     seed_list = parse_seeds(seeds)
-    cfg = _load(config, tasks, episodes_scale, set_, protocol)
+    cfg = _load(config, tasks, episodes_scale, set_, protocol, sequence)
     set_single_thread()
     check_backend(backend, address, workers)
     from evodevo.progress import CommandProgress

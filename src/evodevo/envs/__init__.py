@@ -1,22 +1,31 @@
-"""Environments (SPEC §3): importing this package registers ``evodevo/KukaDiverseObject-v0``.
+"""Environments: importing this package registers ``evodevo/KukaDiverseObject-v0`` (SPEC §3)
+and ``evodevo/CartPole-v1`` (CartPole with its physical constants as arguments, for related-task
+sequences). PyBullet is imported only when a Kuka name is first used.
 
 >>> import gymnasium as gym, evodevo.envs
->>> "evodevo/KukaDiverseObject-v0" in gym.registry
+>>> "evodevo/KukaDiverseObject-v0" in gym.registry and "evodevo/CartPole-v1" in gym.registry
 True
 """
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
 import gymnasium as gym
 
-from evodevo.envs.kuka_diverse_object import (
-    PROPRIO_CENTRE,
-    PROPRIO_HALF_RANGE,
-    KukaDiverseObjectEnv,
-)
-from evodevo.envs.objects import TEST_PATTERN, TRAIN_PATTERN, is_test_object, object_files
+from evodevo.envs.cartpole_dynamics import CARTPOLE_ID
+
+if TYPE_CHECKING:
+    from evodevo.envs.kuka_diverse_object import (
+        PROPRIO_CENTRE,
+        PROPRIO_HALF_RANGE,
+        KukaDiverseObjectEnv,
+    )
+    from evodevo.envs.objects import TEST_PATTERN, TRAIN_PATTERN, is_test_object, object_files
 
 __all__ = [
+    "CARTPOLE_ID",
     "ENV_ID",
     "KukaDiverseObjectEnv",
     "PROPRIO_CENTRE",
@@ -31,13 +40,37 @@ __all__ = [
 #: Gymnasium id of the port.
 ENV_ID = "evodevo/KukaDiverseObject-v0"
 
+#: Names of the Kuka modules, imported on first use (they import PyBullet).
+_LAZY = {
+    "KukaDiverseObjectEnv": "evodevo.envs.kuka_diverse_object",
+    "PROPRIO_CENTRE": "evodevo.envs.kuka_diverse_object",
+    "PROPRIO_HALF_RANGE": "evodevo.envs.kuka_diverse_object",
+    "TEST_PATTERN": "evodevo.envs.objects",
+    "TRAIN_PATTERN": "evodevo.envs.objects",
+    "is_test_object": "evodevo.envs.objects",
+    "object_files": "evodevo.envs.objects",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'evodevo.envs' has no attribute {name!r}")
+
 
 def register_envs() -> None:
-    """Register :data:`ENV_ID` with Gymnasium (does nothing if it is already registered)."""
+    """Register :data:`ENV_ID` and :data:`CARTPOLE_ID` with Gymnasium (once)."""
     if ENV_ID not in gym.registry:
         gym.register(
             id=ENV_ID,
             entry_point="evodevo.envs.kuka_diverse_object:KukaDiverseObjectEnv",
+        )
+    if CARTPOLE_ID not in gym.registry:
+        gym.register(
+            id=CARTPOLE_ID,
+            entry_point="evodevo.envs.cartpole_dynamics:CartPoleDynamicsEnv",
+            max_episode_steps=500,
+            reward_threshold=475.0,
         )
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from evodevo.config import doc, from_dict, replace, to_dict
+from evodevo.envs.env_ids import parse_env_id
 from evodevo.errors import ConfigError
 from evodevo.seed_split import TEST_SEED, VALIDATION_SEED, range_label, require_selection
 
@@ -43,13 +44,18 @@ MODULE_NAMES: tuple[str, ...] = ("DA", "5HT", "NE", "ACh")
 class TaskConfig:
     """One task of the sequence (SPEC §1 table)."""
 
-    env_id: str = doc("CartPole-v1", "Gymnasium id (Box observation, Discrete actions)")
+    env_id: str = doc(
+        "CartPole-v1",
+        "Gymnasium id (Box observation, Discrete actions), optionally with the environment's "
+        "own parameters: ID[key=value,...], e.g. LunarLander-v3[gravity=-5]",
+    )
     episodes: int = doc(400, "training episodes before --episodes-scale")
     max_steps: int | None = doc(500, "episode step limit; null keeps the environment's own")
 
     def validate(self) -> None:
         if not self.env_id:
             raise ConfigError("tasks[].env_id is empty; give a Gymnasium id such as CartPole-v1")
+        parse_env_id(self.env_id)  # a malformed ID[key=value,...] fails here, naming it
         if self.episodes < 1:
             raise ConfigError(f"tasks[].episodes={self.episodes} must be at least 1")
         if self.max_steps is not None and self.max_steps < 1:

@@ -18,6 +18,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from evodevo.envs import CARTPOLE_ID
+from evodevo.envs.env_ids import parse_env_id
 from evodevo.errors import EvodevoError, env_module_error
 from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig, TaskConfig
 from evodevo.neuromod.padding import check_fits
@@ -37,10 +39,18 @@ class TaskSpec:
 
 
 def make_env(env_id: str, max_steps: int | None) -> gym.Env:
-    """``gym.make`` with the task's step limit, or a one-line error for an unknown id."""
+    """``gym.make`` with the task's step limit, or a one-line error for an unknown id.
+
+    ``env_id`` may carry the environment's own parameters, ``ID[key=value,...]``
+    (:mod:`evodevo.envs.env_ids`)."""
+    base, params = parse_env_id(env_id)
     kwargs: dict[str, Any] = {} if max_steps is None else {"max_episode_steps": int(max_steps)}
     try:
-        return gym.make(env_id, **kwargs)
+        return gym.make(base, **params, **kwargs)
+    except TypeError as exc:  # a parameter the environment does not take
+        raise EvodevoError(
+            f"environment {env_id!r}: {exc}; give only parameters that {base} takes"
+        ) from None
     except gym.error.Error as exc:
         raise EvodevoError(
             f"unknown or unusable environment id {env_id!r} ({str(exc).splitlines()[0]}); "
@@ -70,13 +80,15 @@ def tasks_from_ids(cfg: BiarmConfig, ids: list[str]) -> list[TaskConfig]:
     ``default_episodes`` with the environment's own step limit."""
     own = {t.env_id: t for t in cfg.tasks}
     thesis = {e: (n, m) for e, n, m in THESIS_TASKS}
+    thesis[CARTPOLE_ID] = thesis["CartPole-v1"]  # the same task with other constants
     out = []
     for env_id in ids:
+        base = parse_env_id(env_id)[0]
         if env_id in own:
             t = own[env_id]
             out.append(TaskConfig(t.env_id, t.episodes, t.max_steps))
-        elif env_id in thesis:
-            out.append(TaskConfig(env_id, *thesis[env_id]))
+        elif base in thesis:
+            out.append(TaskConfig(env_id, *thesis[base]))
         else:
             out.append(TaskConfig(env_id, cfg.default_episodes, None))
     return out
