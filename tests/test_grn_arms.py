@@ -186,7 +186,7 @@ def test_the_arms_evolve_through_the_cli_with_set(tmp_path, controller, optimize
     cfg = tmp_path / "fake.yaml"
     cfg.write_text(json.dumps({"env": {"id": fake_config().env.id}}))
     out = tmp_path / "run"
-    args = ["grn", "evolve", "--config", str(cfg), "--population", "3", "--generations", "2"]
+    args = ["grn", "evolve", "--config", str(cfg), "--population", "4", "--generations", "2"]
     args += ["--episodes", "2", "--set", f"controller={controller}"]
     args += ["--set", f"evolution.optimizer={optimizer}", "--set", "genome.regulation=false"]
     res = CliRunner().invoke(app, [*args, "--quiet", "--out", str(out)])
@@ -194,7 +194,7 @@ def test_the_arms_evolve_through_the_cli_with_set(tmp_path, controller, optimize
     saved = json.loads((out / "config.json").read_text())["config"]
     assert saved["controller"] == controller and saved["evolution"]["optimizer"] == optimizer
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["generations_run"] == 2 and summary["episodes_run"] == 3 * 2 * 2
+    assert summary["generations_run"] == 2 and summary["episodes_run"] == 4 * 2 * 2
     genome = make_controller(from_dict(GrnConfig, saved), 3).load_genome(out / "best_genome.npz")
     if controller == "plain":
         assert not np.any(genome.W_r)

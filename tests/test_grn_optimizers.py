@@ -348,8 +348,8 @@ def test_checkpoints_name_their_optimizer_and_cma_version(tmp_path):
 def test_optimizer_config_errors_name_the_key():
     with pytest.raises(ConfigError, match="evolution.optimizer"):
         from_dict(GrnConfig, {"evolution": {"optimizer": "pso"}})
-    with pytest.raises(ConfigError, match="population >= 2"):
-        from_dict(GrnConfig, {"evolution": {"optimizer": "cmaes", "population": 1}})
+    with pytest.raises(ConfigError, match="population >= 4"):
+        from_dict(GrnConfig, {"evolution": {"optimizer": "cmaes", "population": 2}})
     with pytest.raises(ConfigError, match="sigma0"):
         from_dict(GrnConfig, {"cmaes": {"sigma0": 0}})
     with pytest.raises(EvodevoError, match="only be told"):

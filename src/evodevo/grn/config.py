@@ -290,10 +290,10 @@ class EvolutionConfig:
             raise ConfigError(
                 f"evolution.optimizer must be one of {list(OPTIMIZERS)}, got {self.optimizer!r}"
             )
-        if self.optimizer == "cmaes" and self.population < 2:
+        if self.optimizer == "cmaes" and self.population < 4:
             raise ConfigError(
-                f"evolution.optimizer=cmaes needs population >= 2 (its lambda), got "
-                f"{self.population}"
+                f"evolution.optimizer=cmaes needs population >= 4 (its lambda: mu = lambda / 2 "
+                f"parents; cma's mirrored sampling fails with lambda = 2), got {self.population}"
             )
         if self.keep == "record" and self.final_pick_episodes > 0:
             raise ConfigError(
