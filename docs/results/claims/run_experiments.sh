@@ -36,7 +36,16 @@ e2() {
   done
 }
 
-for e in "${@:-E1 E2}"; do
+e3a() {  # the lateral scale of E3 (selection seeds 100-102; never reported)
+  local src; src=$(code_at 9bb2eec)
+  compare "$src" --sequence cartpole-dynamics --variants single --seeds 100-102 --out "$out/transfer_scale/single"
+  for scale in 1e-4 1e-2 1; do
+    compare "$src" --sequence cartpole-dynamics --variants pnn --set "network.lateral_scale=$scale" \
+      --seeds 100-102 --out "$out/transfer_scale/pnn_$scale"
+  done
+}
+
+for e in "${@:-E1 E3A E2}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
