@@ -84,7 +84,8 @@ class Td3TwoRates(TD3):
     Args:
         actor_lr: actor Adam learning rate.
         critic_lr: critic Adam learning rate.
-        *args, **kwargs: those of :class:`stable_baselines3.TD3`.
+        *args: those of :class:`stable_baselines3.TD3`.
+        **kwargs: those of :class:`stable_baselines3.TD3`.
     """
 
     def __init__(self, *args: Any, actor_lr: float = 1e-4, critic_lr: float = 1e-3, **kwargs: Any):

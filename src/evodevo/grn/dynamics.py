@@ -57,7 +57,11 @@ def expression_step(
     Args:
         x: expression (B, n) in [0, 1].
         s: sensor vectors (B, n_s).
-        W_s, W_r, theta, delta, alpha: batched genome arrays (leading axis B).
+        W_s: batched genome array (leading axis B).
+        W_r: batched genome array (leading axis B).
+        theta: batched genome array (leading axis B).
+        delta: batched genome array (leading axis B).
+        alpha: batched genome array (leading axis B).
         dt: time step.
         eta: expression noise (B, n), already drawn (zeros for no noise).
 

@@ -153,8 +153,8 @@ class BlobLocaliser:
 
     Args:
         background: the empty-tray image (H, W, 3) uint8.
-        view, proj: the camera's row-major 4×4 view and projection matrices (default:
-            :class:`CameraModel`).
+        view: the camera's row-major 4×4 view matrix (default: :class:`CameraModel`).
+        proj: the camera's row-major 4×4 projection matrix (default: :class:`CameraModel`).
     """
 
     background: np.ndarray

@@ -87,8 +87,10 @@ def modulated_regulation(
 
     Args:
         W_r: base regulatory weights (B, n, n).
-        m_ne, m_ach: norepinephrine and acetylcholine states (B,).
-        gamma_ne, gamma_ach: modulation strengths (B,).
+        m_ne: norepinephrine states (B,).
+        m_ach: acetylcholine states (B,).
+        gamma_ne: norepinephrine modulation strengths (B,).
+        gamma_ach: acetylcholine modulation strengths (B,).
     """
     return W_r * regulatory_gain(m_ne, m_ach, gamma_ne, gamma_ach)[:, None, None]
 
