@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterable
 from typing import Any, TypeVar
 
 from evodevo.errors import EvodevoError
+from evodevo.worker import progress_callback, worker_setup
 
 __all__ = ["RayPool", "local_ray_options", "use_cluster_token"]
 
@@ -39,7 +40,6 @@ class _Runner:
     """The actor body: set up once, then run items."""
 
     def __init__(self, initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
-        from evodevo.parallel import worker_setup
 
         worker_setup(initializer, initargs)
 
@@ -168,8 +168,6 @@ class RayPool:
         """``[fn(x) for x in items]`` in order, one item per idle actor at a time."""
         ray = self.ray
         from ray.exceptions import RayActorError
-
-        from evodevo.parallel import progress_callback
 
         seq = list(items)
         report = progress_callback()
