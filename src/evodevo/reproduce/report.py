@@ -29,6 +29,7 @@ from evodevo.neuromod.tables import (
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.biarm_protocols import grids, protocol_table
 from evodevo.reproduce.budget import GrnBudget, ReproduceConfig, preset
+from evodevo.reproduce.findings import findings
 from evodevo.reproduce.html_report import markdown_to_html
 from evodevo.reproduce.kuka_report import kuka_section
 from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
@@ -436,6 +437,7 @@ def write_report(
         "Logs of every step are in `logs/`, the resolved budget in `config.json`.",
         "",
     ]
+    lines += findings(out, cfg)
     lines += coverage(cfg)
     if cfg.biarm.enabled:
         lines += biarm_section(out, cfg)
