@@ -24,7 +24,7 @@ import math
 import os
 from collections.abc import Sequence
 
-import pybullet as p
+from evodevo.envs.bullet import pybullet as p
 
 __all__ = [
     "KukaArm",

@@ -46,12 +46,12 @@ from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
-import pybullet as p
 import pybullet_data
 from gymnasium import spaces
 from gymnasium.utils.seeding import np_random
 
 from evodevo.envs import kuka_arm
+from evodevo.envs.bullet import pybullet as p
 from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, WORKSPACE_X, WORKSPACE_Y, KukaArm
 from evodevo.envs.kuka_grasp import GRASP_CLOSE_STEPS, GRASP_LIFT_STEPS, grasp
 from evodevo.envs.objects import object_files

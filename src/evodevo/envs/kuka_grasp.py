@@ -38,8 +38,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import pybullet as p
-
+from evodevo.envs.bullet import pybullet as p
 from evodevo.envs.kuka_arm import END_EFFECTOR_INDEX, OPEN_FINGER_ANGLE, KukaArm
 
 __all__ = [

@@ -109,7 +109,7 @@ class CameraModel:
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """(view, projection) as row-major 4×4 arrays (OpenGL convention, like PyBullet)."""
-        import pybullet as p
+        from evodevo.envs.bullet import pybullet as p
 
         view = (
             np.array(
