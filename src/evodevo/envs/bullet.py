@@ -12,6 +12,7 @@ restored. Every evodevo module takes PyBullet from here.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import importlib
 import os
@@ -41,10 +42,8 @@ def _import_quietly(name: str) -> ModuleType:
 
 
 def _flush_c_stdio() -> None:
-    try:
+    with contextlib.suppress(OSError, AttributeError):  # no C library (not POSIX)
         ctypes.CDLL(None).fflush(None)
-    except (OSError, AttributeError):  # no C library to ask (not POSIX): nothing buffered
-        pass
 
 
 pybullet = _import_quietly("pybullet")
