@@ -194,3 +194,37 @@ def test_sigkill_leaves_no_worker(tmp_path):
             os.kill(pid, signal.SIGKILL)
         if proc.poll() is None:
             proc.kill()
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["biarm", "train", "--variant", "pnn", "--tasks", "CartPole-v1"],
+        ["biarm", "compare", "--variants", "pnn", "--seeds", "0", "--tasks", "CartPole-v1"],
+        ["grn", "evolve", *TINY_GRN, "--episodes", "1", "--quiet"],
+    ],
+)
+def test_an_out_folder_that_cannot_be_created_is_one_line(tmp_path, command):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("in the way")
+    _one_line_error([*command, "--out", str(blocker / "run")], "cannot be created")
+
+
+def test_zero_test_episodes_names_the_option_given(evolved):
+    _one_line_error(
+        ["grn", "evaluate", str(evolved), "--test-episodes", "0", "--no-baselines"],
+        "--test-episodes 0",
+    )
+
+
+def test_each_video_command_points_to_the_other_for_the_other_kind_of_run(evolved, tmp_path):
+    biarm_run = tmp_path / "biarm"
+    (biarm_run).mkdir()
+    (biarm_run / "config.json").write_text('{"kind": "biarm", "config": {}}')
+    _one_line_error(
+        ["grn", "video", str(biarm_run), "--out", str(tmp_path / "a.gif")], "evodevo biarm video"
+    )
+    _one_line_error(
+        ["biarm", "video", str(evolved), "--task", "0", "--out", str(tmp_path / "b.gif")],
+        "evodevo grn video",
+    )

@@ -27,6 +27,8 @@ from evodevo.errors import CheckpointError, EvodevoError
 
 __all__ = [
     "RunDir",
+    "make_dir",
+    "run_kind",
     "atomic_write_bytes",
     "atomic_write_with",
     "atomic_write_text",
@@ -127,13 +129,40 @@ def machine_info() -> dict[str, Any]:
     }
 
 
+def make_dir(path: str | Path, what: str = "--out") -> Path:
+    """Create folder ``path`` (and its parents), or raise one clear :class:`EvodevoError`
+    naming it, when it cannot be created (a file in the way, no permission, a full disk)."""
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise EvodevoError(
+            f"{what} {str(p)!r} cannot be created ({exc.strerror or exc}); choose a folder "
+            "you can write to"
+        ) from None
+    return p
+
+
+def run_kind(path: str | Path) -> str | None:
+    """The ``kind`` a run folder's ``config.json`` records (``"biarm"``, ``"grn"``, ...), or
+    None when the folder holds no readable run config."""
+    p = Path(path) / "config.json"
+    if not p.is_file():
+        return None
+    try:
+        kind = read_json(p).get("kind")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return str(kind) if kind is not None else None
+
+
 class RunDir:
     """One run's folder: ``config.json``, ``*.csv`` metrics, ``summary.json``, ``checkpoints/``."""
 
     def __init__(self, path: str | Path, create: bool = True) -> None:
         self.path = Path(path)
         if create:
-            self.path.mkdir(parents=True, exist_ok=True)
+            make_dir(self.path)
         elif not self.path.is_dir():
             raise EvodevoError(f"run directory {str(self.path)!r} does not exist")
 

@@ -1,8 +1,9 @@
 """The ``evodevo`` command line (Typer).
 
 Sub-commands live in one file each: :mod:`evodevo.cli.biarm`, :mod:`evodevo.cli.grn`,
-:mod:`evodevo.cli.reproduce`. User errors (:class:`~evodevo.errors.EvodevoError`) print one
-line ``error: ...`` and exit with status 2, without a traceback.
+:mod:`evodevo.cli.reproduce`. User errors (:class:`~evodevo.errors.EvodevoError`, and an
+``OSError`` on a path the user gave) print one line ``error: ...`` and exit with status 2,
+without a traceback.
 """
 
 from __future__ import annotations
@@ -66,4 +67,12 @@ def main(argv: list[str] | None = None) -> None:
         app(args=argv, standalone_mode=True)
     except EvodevoError as exc:
         typer.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    except OSError as exc:  # a path the user gave: one line, not a traceback
+        if exc.filename is None:
+            raise
+        typer.echo(
+            f"error: {exc.filename}: {exc.strerror or exc}; check the path and its permissions",
+            err=True,
+        )
         sys.exit(2)

@@ -19,6 +19,7 @@ import typer
 
 from evodevo.cli.common import ADDRESS_HELP, check_backend, check_seed, parse_list, parse_seeds
 from evodevo.errors import EvodevoError
+from evodevo.runs import run_kind
 
 #: Every variant name (kept literal: importing the variants module would load torch on start).
 VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, clamped, finetune, ewc, sb3-dqn, single"
@@ -397,6 +398,12 @@ def video(
         raise EvodevoError(f"--fps {fps} must be > 0")
     if max_steps is not None and max_steps < 1:
         raise EvodevoError(f"--max-steps {max_steps} must be >= 1")
+    kind = run_kind(run_dir)
+    if kind is not None and kind != "biarm":
+        raise EvodevoError(
+            f"{str(run_dir)!r} is a {kind!r} run, not a BIARM run; film it with `evodevo grn "
+            f"video {run_dir} --out {out}`"
+        )
     policy = evodevo.load(run_dir, task=task)
     if seed is None:
         seed = int(read_json(run_dir / "config.json")["config"].get("eval", {}).get("seed", 0))

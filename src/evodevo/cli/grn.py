@@ -31,6 +31,7 @@ from evodevo.cli.common import (
     set_overrides,
 )
 from evodevo.errors import EvodevoError
+from evodevo.runs import run_kind
 
 __all__ = ["app"]
 
@@ -440,6 +441,11 @@ def video(
         raise EvodevoError(f"--fps {fps} must be > 0")
     if max_steps is not None and max_steps < 1:
         raise EvodevoError(f"--max-steps {max_steps} must be >= 1")
+    if run_kind(run_dir) == "biarm":
+        raise EvodevoError(
+            f"{str(run_dir)!r} is a BIARM run; film one of its columns with `evodevo biarm "
+            f"video {run_dir} --task N --out {out}`"
+        )
     policy = evodevo.load(run_dir)
     cfg = policy.config  # type: ignore[attr-defined]
     ep = test_episodes(cfg.evaluation.test_seed, episode + 1, objects == "test")[episode]

@@ -152,7 +152,9 @@ def run_ablations(
     cfg = loaded.config
     n = int(episodes if episodes is not None else cfg.evaluation.test_episodes)
     if n < 1:
-        raise EvodevoError(f"--episodes {n} must be at least 1")
+        raise EvodevoError(
+            f"--test-episodes {n} must be at least 1 (the number of fixed test episodes)"
+        )
     test_seed = int(seed if seed is not None else cfg.evaluation.test_seed)
     eps = test_episodes(test_seed, n, objects == "test")
     rows: list[dict[str, Any]] = []

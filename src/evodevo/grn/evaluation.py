@@ -151,7 +151,9 @@ def evaluate_run(
     cfg = loaded.config
     n = int(episodes if episodes is not None else cfg.evaluation.test_episodes)
     if n < 1:
-        raise EvodevoError(f"--episodes {n} must be at least 1")
+        raise EvodevoError(
+            f"--test-episodes {n} must be at least 1 (the number of fixed test episodes)"
+        )
     test_seed = int(seed if seed is not None else cfg.evaluation.test_seed)
     is_test = objects == "test"
     clean_eps = test_episodes(test_seed, n, is_test)

@@ -55,7 +55,7 @@ from evodevo.neuromod.tables import (
     table_markdown,
 )
 from evodevo.parallel import make_pool
-from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
+from evodevo.runs import RunDir, atomic_write_text, make_dir, read_json, write_json
 from evodevo.stats import summarise
 
 __all__ = [
@@ -129,7 +129,7 @@ def run_grid(
         get_variant(v)
     resolve_tasks(cfg)  # every input error before any worker starts
     root = Path(out)
-    (root / "runs").mkdir(parents=True, exist_ok=True)
+    make_dir(root / "runs")
     record_grid(root, [run_dir_name(v, s) for v in variants for s in seeds])
     cfg_dict = to_dict(cfg)
     items = []
