@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test install lint bench orig-venv clean
+.PHONY: run test install lint bench docs docs-serve orig-venv clean
 
 # The install also builds the fused BIARM kernels (~30-60 s once per machine), so neither the
 # first run nor the first test pays for it; without a compiler it prints why, and runs use the
@@ -30,6 +30,14 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks --json
+
+# The documentation site (mkdocs.yml): pages of docs/ and the API reference from the docstrings.
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict
+	@echo "site: build/site/index.html"
+
+docs-serve: $(STAMP)
+	$(BIN)/mkdocs serve
 
 # The original pybullet_envs Kuka env for benchmarks/env_speed.py: it needs the dead gym 0.23.1,
 # so it lives in its own venv and is never a dependency of evodevo (SPEC §3).
