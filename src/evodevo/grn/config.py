@@ -417,7 +417,7 @@ class CmaesConfig:
     )
     diagonal: bool = doc(
         True,
-        "separable CMA-ES: a diagonal covariance (linear time and memory; with ~1,200 GRN "
+        "separable CMA-ES: a diagonal covariance (linear time and memory; with ~1,000 GRN "
         "coordinates a full covariance learns ~2/N^2 per generation); false: full covariance",
     )
 

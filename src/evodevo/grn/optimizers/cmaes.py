@@ -9,9 +9,9 @@ coordinates). ``cma``'s ``CMAEvolutionStrategy`` does the rest with its recommen
 lambda = ``evolution.population``, mu = lambda / 2 with its log-rank weights (negative weights
 for active CMA), cumulative step-size adaptation; ``cmaes.diagonal`` chooses the separable
 variant (a diagonal covariance, learning rates scaled up accordingly; linear time and memory),
-the default because the GRN has about 1,200 coordinates: full covariance learns at
-c1 ≈ 2 / N² per generation, nothing within a 15-generation budget, and costs an N × N matrix and
-its eigen-decomposition. ``cma``'s own rule of thumb keeps the covariance diagonal for the
+the default because the GRN has about 1,000 coordinates (1,038 for the vision preset's seed 0):
+full covariance learns at c1 ≈ 2 / N² per generation, nothing within a 15-generation budget,
+and costs an N × N matrix and its eigen-decomposition. ``cma``'s own rule of thumb keeps the covariance diagonal for the
 first 100 N / sqrt(lambda) iterations (its option ``CMA_diagonal``), far beyond this budget.
 
 Everything else is the shared loop's (:class:`~evodevo.grn.evolution.Evolution`): the same
