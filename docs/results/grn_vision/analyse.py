@@ -1,4 +1,4 @@
-"""Tables of docs/results/grn.md, "The GRN that sees" (issue 22), from the saved per-episode files.
+"""Tables of docs/results/history.md, "The GRN that sees" (issue 22), from the saved per-episode files.
 
 Usage: python docs/results/grn_vision/analyse.py  (reads docs/results/grn_vision/*, thesis/grn/*)
 Every policy row is on the same 200 held-out-object test episodes (test seed 10000); pairs are

@@ -1,6 +1,6 @@
 """Does recombination join an x map and a y map? Crossover on the noisy reach surrogate.
 
-Issue 22, ninth session (docs/results/grn.md, "Crossover"). The real-env runs learn the map
+Issue 22, 2026-12-06 (docs/results/history.md, "Crossover"). The real-env runs learn the map
 from the target's x offset or the one from its y offset, rarely both; Algorithm 3 breeds by
 mutation alone. Here a child is, with probability ``p_cross``, first a recombination of two
 tournament-picked parents, then mutated as usual:

@@ -1,6 +1,6 @@
 """Was the final pick the problem? Re-select a finished run's last elites on fresh episodes.
 
-Issue 22, third session (docs/results/grn.md, "More genomes, fewer episodes, on the real env").
+Issue 22, 2026-12-05 (docs/results/history.md, "More genomes, fewer episodes, on the real env").
 A run's ``best_genome.npz`` is the best of its last generation on that generation's few
 training episodes. This script takes the elites that the last generation passed on (the first
 ``evolution.elites`` genomes of the checkpoint's bred population, best first), scores each on

@@ -1,6 +1,6 @@
 """Does a grasp-like noisy success hide the reach from selection? The reach surrogate with luck.
 
-Issue 22, third round (docs/results/grn.md, "Selection under a noisy success"). On the real env
+Issue 22, third round (docs/results/history.md, "Selection under a noisy success"). On the real env
 the preset's evolutions end with rough, offset reach maps (67.8 % pooled), while on the
 kinematic surrogate (``search_surrogate.py``, fitness = the reach distance alone) the same
 config finds accurate ones (0.65 cm). The surrogate here adds what the real env's fitness has:
@@ -66,12 +66,12 @@ ROWS: dict[str, dict[str, Any]] = {
     "3 x distance, 2 x budget": _merge(
         {"evaluation": {"distance_weight": 3.0}}, _budget(12, 10, 30)
     ),
-    # sixth session: selection pressure (the real env's vision8_t5 config)
+    # 2026-12-05: selection pressure (the real env's vision8_t5 config)
     "preset, tournament 5": {"evolution": {"tournament": 5}},
     "preset, tournament 2": {"evolution": {"tournament": 2}},
     "preset, 1 elite": {"evolution": {"elite_fraction": 0.09}},
     "preset, tournament 5, 1 elite": {"evolution": {"tournament": 5, "elite_fraction": 0.09}},
-    # ninth session: a mutation step per block (mutation.block_sigma / block_p)
+    # 2026-12-06: a mutation step per block (mutation.block_sigma / block_p)
     "W_s, W_m sigma 0.3": {"mutation": {"block_sigma": {"W_s": 0.3, "W_m": 0.3}}},
     "W_s, W_m sigma 0.2, p 1": {
         "mutation": {"block_sigma": {"W_s": 0.2, "W_m": 0.2}, "block_p": {"W_s": 1.0, "W_m": 1.0}}

@@ -1,6 +1,6 @@
 """Which criterion should the final pick use? Success, or the reach the shaped fitness reads.
 
-Issue 22, fourth session (docs/results/grn.md, "The final pick, paid from the budget"). For a
+Issue 22, 2026-12-05 (docs/results/history.md, "The final pick, paid from the budget"). For a
 run evolved with ``evolution.final_pick_episodes``, re-runs its final pick exactly (the elites
 bred after the last generation, the same fresh clean episodes of seed stream
 ``FINAL_PICK_KEY``), this time also reading the gripper-to-nearest-object distance when the

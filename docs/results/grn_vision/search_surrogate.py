@@ -1,6 +1,6 @@
 """Which change lets evolution find an accurate reaching map? The kinematic reach surrogate.
 
-Issue 22, second round (docs/results/grn.md, "Why the search stalled"). Same surrogate as
+Issue 22, second round (docs/results/history.md, "Why the search stalled"). Same surrogate as
 ``reach_surrogate.py`` (a target drawn in the tray; the GRN reads the blob features
 [dx, dy, size = 0.5, found = 1] and proprioception [x, y, z, angle]; the gripper moves 0.06 m per
 unit action for 7 steps, clamped to the workspace; no physics, no grasp, no objects), but every

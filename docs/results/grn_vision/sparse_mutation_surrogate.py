@@ -1,7 +1,7 @@
-"""Per-entry (sparse) mutation on the noisy surrogate (issue 22, ninth session).
+"""Per-entry (sparse) mutation on the noisy surrogate (issue 22, 2026-12-06).
 
 Each entry of every block moves with probability FRAC by N(0, SIG²), instead of the preset's
-noise on a whole matrix at once (docs/results/grn.md, "Crossover"). A prototype: it swaps the
+noise on a whole matrix at once (docs/results/history.md, "Crossover"). A prototype: it swaps the
 mutation that the controller calls, and reuses ``crossover_surrogate.py``'s loop with crossover
 off, so its numbers compare with that script's "mutation only" row.
 

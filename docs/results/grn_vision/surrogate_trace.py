@@ -1,4 +1,4 @@
-"""Trace of one surrogate evolution's best genome (docs/results/grn.md, "Why the search stalled").
+"""Trace of one surrogate evolution's best genome (docs/results/history.md, "Why the search stalled").
 
 Run from the repo root: python docs/results/grn_vision/surrogate_trace.py '{"gens":40,"eps":10}' 0
 """

@@ -5,7 +5,7 @@ to runs/surr/results.jsonl. Options: readout tanh|centred (tanh(W_m^T (x - x0)))
 (tanh(sum_i W_m[i] (x_i - x_{i+n/2}))); reset (restart from x0 each control step); noprop /
 propmask (zero / scale proprioception); mut thesis|logsigma (per-offspring sigma x 10^U(lo, 0))|
 sparse (each entry with probability pe); wm_density; pop, eps, gens (the old preset: 12, 6, 10,
-sigma 0.2); over (config overrides). Measured rows: docs/results/grn.md, "Why the search stalled".
+sigma 0.2); over (config overrides). Measured rows: docs/results/history.md, "Why the search stalled".
 """
 
 import json
