@@ -247,9 +247,9 @@ def test_per_task_entry_with_the_base_values_changes_nothing(tmp_path):
 
 
 def test_per_task_override_from_the_command_line():
-    from evodevo.cli.biarm import _load
+    from evodevo.neuromod.resolve import resolve_biarm
 
-    cfg = _load(None, None, None, ["dqn.per_task.CartPole-v1.grad_clip=1.0"], "default")
+    cfg = resolve_biarm("default", sets=["dqn.per_task.CartPole-v1.grad_clip=1.0"])
     assert cfg.dqn.per_task == {"CartPole-v1": {"grad_clip": 1.0}}
     assert cfg.for_task("CartPole-v1").dqn.grad_clip == 1.0 and cfg.dqn.grad_clip == 10.0
 
@@ -451,3 +451,20 @@ def test_runs_written_before_per_task_resume_without_it(tmp_path):
     assert (variant, seed) == ("pnn", 3) and resumed.dqn.per_task == {}
     assert to_dict(resumed) == to_dict(cfg)
     _check_resume(run, get_variant("pnn"), 3, resumed)
+
+
+def test_the_resolver_applies_preset_then_file_then_set_then_flags(tmp_path):
+    """One order for every command: defaults, protocol preset, --config, --set, flags."""
+    from evodevo.neuromod.resolve import resolve_biarm
+
+    f = tmp_path / "c.yaml"
+    f.write_text("eval: {validation_episodes: 7, episodes: 3}\nepisodes_scale: 0.5\n")
+    cfg = resolve_biarm("v1", f, ["eval.episodes=4"], episodes_scale=0.25)
+    assert cfg.dqn.eps_unit == "episode"  # the preset
+    assert cfg.eval.validation_episodes == 7  # the file over the preset's 10
+    assert cfg.eval.episodes == 4  # --set over the file
+    assert cfg.episodes_scale == 0.25  # the flag over the file
+    with pytest.raises(ConfigError, match="'nope' is not one of"):
+        resolve_biarm("nope")
+    with pytest.raises(ConfigError, match="dqn.nope"):
+        resolve_biarm(sets=["dqn.nope=1"])

@@ -27,7 +27,17 @@ import yaml
 
 from evodevo.errors import ConfigError
 
-__all__ = ["doc", "from_dict", "load_config", "merge", "to_dict", "describe", "replace"]
+__all__ = [
+    "doc",
+    "from_dict",
+    "load_config",
+    "merge",
+    "to_dict",
+    "describe",
+    "replace",
+    "parse_sets",
+    "resolve",
+]
 
 T = TypeVar("T")
 
@@ -160,27 +170,93 @@ def load_config(
     cls: type[T], path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
 ) -> T:
     """Load ``cls`` from a YAML file (optional) and then apply ``overrides`` (nested dicts merge)."""
-    data: dict[str, Any] = {}
-    if path is not None:
-        p = Path(path)
-        if not p.is_file():
-            raise ConfigError(f"config file {str(p)!r} does not exist; pass an existing YAML file")
-        try:
-            loaded = yaml.safe_load(p.read_text())
-        except yaml.YAMLError as exc:
-            raise ConfigError(
-                f"config file {str(p)!r} is not valid YAML: {_yaml_error(exc)}"
-            ) from None
-        if loaded is None:
-            loaded = {}
-        if not isinstance(loaded, Mapping):
-            raise ConfigError(
-                f"config file {str(p)!r} must hold a mapping of keys, got {type(loaded).__name__}"
-            )
-        data = dict(loaded)
+    data = _read_yaml(path) if path is not None else {}
     if overrides:
         data = merge(data, overrides)
     return from_dict(cls, data)
+
+
+def _read_yaml(path: str | Path, what: str = "config file") -> dict[str, Any]:
+    """The mapping in YAML file ``path`` (empty file: ``{}``); one clear error otherwise."""
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"{what} {str(p)!r} does not exist; pass an existing YAML file")
+    try:
+        loaded = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{what} {str(p)!r} is not valid YAML: {_yaml_error(exc)}") from None
+    if loaded is None:
+        return {}
+    if not isinstance(loaded, Mapping):
+        raise ConfigError(
+            f"{what} {str(p)!r} must hold a mapping of keys, got {type(loaded).__name__}"
+        )
+    return dict(loaded)
+
+
+def parse_sets(items: typing.Iterable[str] | None) -> dict[str, Any]:
+    """Nested overrides from ``--set key.sub=value`` options (values read as YAML).
+
+    >>> parse_sets(["evolution.optimizer=cmaes", "genome.regulation=false"])
+    {'evolution': {'optimizer': 'cmaes'}, 'genome': {'regulation': False}}
+    """
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, eq, value = item.partition("=")
+        parts = [p.strip() for p in key.split(".")]
+        if not eq or not all(parts):
+            raise ConfigError(f"--set {item!r} must look like section.key=value")
+        node = out
+        for p in parts[:-1]:
+            child = node.setdefault(p, {})
+            if not isinstance(child, dict):
+                raise ConfigError(f"--set {item!r}: {p!r} was already set to a value")
+            node = child
+        try:
+            node[parts[-1]] = yaml.safe_load(value)
+        except yaml.YAMLError as exc:
+            raise ConfigError(
+                f"--set {item!r}: the value is not valid YAML ({_yaml_error(exc)})"
+            ) from None
+    return out
+
+
+def resolve(
+    cls: type[T],
+    preset: Mapping[str, Any] | None = None,
+    path: str | Path | None = None,
+    sets: typing.Iterable[str] | None = None,
+    flags: Mapping[str, Any] | None = None,
+) -> T:
+    """The config every command runs with, in one order: the dataclass defaults, then a
+    preset's overrides, then the ``--config`` file, then ``--set key=value``, then the
+    command's own flags (nested dicts; None values are left out). Unknown keys and bad values
+    fail here, naming the key.
+
+    >>> from dataclasses import dataclass
+    >>> @dataclass
+    ... class C:
+    ...     lr: float = 1e-3
+    ...     batch: int = 64
+    >>> resolve(C, preset={"lr": 0.1, "batch": 8}, sets=["lr=0.5"], flags={"batch": None})
+    C(lr=0.5, batch=8)
+    """
+    data = merge(dict(preset or {}), _read_yaml(path) if path is not None else {})
+    data = merge(data, parse_sets(sets))
+    data = merge(data, _without_none(flags or {}))
+    return from_dict(cls, data)
+
+
+def _without_none(flags: Mapping[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in flags.items():
+        if isinstance(v, Mapping):
+            inner = _without_none(v)
+            if inner:
+                out[k] = inner
+        elif v is not None:
+            out[k] = v
+    return out
 
 
 def _yaml_error(exc: yaml.YAMLError) -> str:

@@ -32,7 +32,7 @@ _TASKS_HELP = (
 )
 _SEQUENCE_HELP = (
     "A named sequence of related tasks instead of --tasks: cartpole-dynamics, "
-    "cartpole-dynamics-reversed, lunarlander-gravity (evodevo/presets/sequences/)."
+    "cartpole-dynamics-reversed, lunarlander-gravity (evodevo/presets/biarm_sequences/)."
 )
 
 app = typer.Typer(
@@ -51,54 +51,10 @@ def _load(
     protocol: str | None = None,
     sequence: str | None = None,
 ) -> Any:
-    """Config from YAML + CLI options; every input error raised here, before training.
+    """:func:`evodevo.neuromod.resolve.resolve_biarm` of the command's options."""
+    from evodevo.neuromod.resolve import resolve_biarm
 
-    Order: defaults, ``config`` file, ``protocol`` (SPEC §1.6 presets), ``--set``, then the
-    tasks of ``--tasks`` or ``--sequence``."""
-    import yaml
-
-    from evodevo.config import load_config
-    from evodevo.envs.env_ids import split_env_ids
-    from evodevo.errors import ConfigError
-    from evodevo.neuromod.config import BiarmConfig
-    from evodevo.neuromod.tasks import tasks_from_ids
-
-    extra: dict[str, Any] = {}
-    for item in overrides or []:
-        if "=" not in item:
-            raise ConfigError(f"--set {item!r} must look like key.sub=value")
-        key, value = item.split("=", 1)
-        node = extra
-        parts = key.strip().split(".")
-        for p in parts[:-1]:
-            node = node.setdefault(p, {})
-        node[parts[-1]] = yaml.safe_load(value)
-    if episodes_scale is not None:
-        if not episodes_scale > 0:
-            raise ConfigError(
-                f"--episodes-scale {episodes_scale} must be a positive number (e.g. 0.25)"
-            )
-        extra["episodes_scale"] = episodes_scale
-    if tasks is not None and sequence is not None:
-        raise ConfigError("--tasks and --sequence both name the tasks; give one of them")
-    ids = split_env_ids(tasks) if tasks is not None else None
-    if tasks is not None and not ids:
-        raise ConfigError(f"--tasks {tasks!r} names nothing; give ids or leave --tasks out")
-    if protocol is not None:
-        from evodevo.neuromod.protocols import apply_protocol
-
-        extra = apply_protocol(extra, protocol)
-    cfg = load_config(BiarmConfig, config, extra)
-    if ids:
-        from evodevo.config import replace
-
-        cfg = replace(cfg, tasks=tasks_from_ids(cfg, ids))
-    if sequence is not None:
-        from evodevo.config import replace
-        from evodevo.neuromod.sequences import load_sequence
-
-        cfg = replace(cfg, tasks=load_sequence(sequence))
-    return cfg
+    return resolve_biarm(protocol, config, overrides, episodes_scale, tasks, sequence)
 
 
 _PROTOCOL_HELP = (

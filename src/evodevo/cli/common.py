@@ -66,33 +66,6 @@ BACKEND_HELP = "local (in-process / process pool) or ray (Ray actors)."
 ADDRESS_HELP = "Ray cluster: auto or HOST:PORT (with --backend ray; default: a private local Ray)."
 
 
-def set_overrides(items: list[str] | None) -> dict[str, Any]:
-    """Nested overrides from ``--set key.sub=value`` options (values read as YAML).
-
-    >>> set_overrides(["evolution.optimizer=cmaes", "genome.regulation=false"])
-    {'evolution': {'optimizer': 'cmaes'}, 'genome': {'regulation': False}}
-    """
-    import yaml
-
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, eq, value = item.partition("=")
-        parts = [p.strip() for p in key.split(".")]
-        if not eq or not all(parts):
-            raise EvodevoError(f"--set {item!r} must look like section.key=value")
-        node = out
-        for p in parts[:-1]:
-            child = node.setdefault(p, {})
-            if not isinstance(child, dict):
-                raise EvodevoError(f"--set {item!r}: {p!r} was already set to a value")
-            node = child
-        try:
-            node[parts[-1]] = yaml.safe_load(value)
-        except yaml.YAMLError as exc:
-            raise EvodevoError(f"--set {item!r}: the value is not valid YAML ({exc})") from None
-    return out
-
-
 SET_HELP = (
     "Override a config key, e.g. --set evolution.optimizer=cmaes or --set "
     "genome.regulation=false (repeatable; applied last; unknown keys are an error)."
@@ -216,5 +189,4 @@ __all__ += [
     "check_backend",
     "format_rate",
     "add_evaluate_command",
-    "set_overrides",
 ]

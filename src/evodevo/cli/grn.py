@@ -28,8 +28,8 @@ from evodevo.cli.common import (
     format_rate,
     parse_list,
     renamed,
-    set_overrides,
 )
+from evodevo.config import parse_sets
 from evodevo.errors import EvodevoError
 from evodevo.runs import run_kind
 
@@ -215,7 +215,7 @@ def evolve(
             keep,
             optimizer,
         ),
-        set_overrides(set_),
+        parse_sets(set_),
     )
     if resume and not (out / "config.json").is_file():
         where = "does not exist" if not out.exists() else "holds no run (no config.json)"

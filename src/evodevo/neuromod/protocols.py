@@ -1,6 +1,6 @@
-"""Named DQN protocols: the details Table 3.1 leaves open, as presets (SPEC §1.6; issue 21).
+"""Named DQN protocols: the details Table 3.1 leaves open, as presets (SPEC §1.6).
 
-A protocol is a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig`'s defaults
+A protocol is a preset file ``evodevo/presets/biarm/NAME.yaml``: a set of overrides of :class:`~evodevo.neuromod.config.BiarmConfig`'s defaults
 (only keys Table 3.1 and SPEC §1.2 do not fix). ``default`` is the config's defaults, the
 protocol the measurements picked (``docs/results/biarm.md``): ε × 0.995 per environment step,
 a soft target (τ 0.005), the best validated network kept, the earlier columns' activations
@@ -44,36 +44,15 @@ from typing import Any
 from evodevo.config import from_dict, merge, to_dict
 from evodevo.errors import ConfigError
 from evodevo.neuromod.config import BiarmConfig
+from evodevo.presets import load_preset
 
-__all__ = ["PROTOCOLS", "protocol_config", "apply_protocol"]
+__all__ = ["PROTOCOL_NAMES", "PROTOCOLS", "protocol_config", "apply_protocol"]
 
-#: name -> overrides of the config defaults (nested sections).
-PROTOCOLS: dict[str, dict[str, Any]] = {
-    "default": {},
-    # the previous default (thesis/biarm_v3): no per-task settings; `{}` replaces
-    "v3": {"dqn": {"per_task": {}}},
-    # v3 as its first full runs (thesis/biarm_scaled) ran it: 10 validation episodes
-    "scaled": {"dqn": {"per_task": {}}, "eval": {"validation_episodes": 10}},
-    "v2": {
-        "dqn": {"per_task": {}},
-        "network": {"lateral_scale": 1.0, "lateral_init": "xavier"},
-        "modules": {"lr_relative": False},
-        "eval": {"validation_episodes": 10},
-    },
-    "v1": {
-        "dqn": {
-            "eps_unit": "episode",
-            "target_mode": "hard",
-            "target_update": 500,
-            "double_q": False,
-            "keep": "last",
-            "per_task": {},
-        },
-        "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
-        "modules": {"lr_relative": False},
-        "eval": {"validation_episodes": 10},
-    },
-}
+#: The protocols in the order of the help text, newest first.
+PROTOCOL_NAMES: tuple[str, ...] = ("default", "v3", "scaled", "v2", "v1")
+
+#: name -> overrides of the config defaults, read from ``evodevo/presets/biarm/NAME.yaml``.
+PROTOCOLS: dict[str, dict[str, Any]] = {n: load_preset("biarm", n) for n in PROTOCOL_NAMES}
 
 
 def apply_protocol(data: Mapping[str, Any], name: str) -> dict[str, Any]:
