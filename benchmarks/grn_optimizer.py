@@ -73,8 +73,7 @@ def run(
         quick: smoke budget.
         progress: one line per generation on stderr.
     """
-    from evodevo.cli.common import set_overrides
-    from evodevo.config import load_config, merge, to_dict
+    from evodevo.config import load_config, merge, parse_sets, to_dict
     from evodevo.grn.config import GrnConfig, vision_preset
     from evodevo.grn.controller import make_controller
     from evodevo.grn.evaluation import rate_dict
@@ -94,7 +93,7 @@ def run(
     if quick:
         ov["evolution"].update(population=4)
         ov["evaluation"] = {"episodes": 1}
-    cfg = load_config(GrnConfig, None, merge(merge(vision_preset(), ov), set_overrides(overrides)))
+    cfg = load_config(GrnConfig, None, merge(merge(vision_preset(), ov), parse_sets(overrides)))
     set_single_thread()
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="grn_optimizer_"))
     t0 = time.perf_counter()
