@@ -20,7 +20,7 @@ from evodevo.neuromod.continual_metrics import (
     grid_metrics,
     run_metrics,
 )
-from evodevo.neuromod.tables import continual_runs_csv, continual_table
+from evodevo.neuromod.continual_table import continual_runs_csv, continual_table
 from evodevo.runs import RunDir
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")

@@ -29,30 +29,30 @@ from evodevo.errors import EvodevoError
 from evodevo.evidence.aggregate import DEFAULT_REPS
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.continual_metrics import RunMetrics, grid_metrics
+from evodevo.neuromod.continual_table import ContinualTable, continual_runs_csv, continual_table
+from evodevo.neuromod.table_format import (
+    csv_text,
+    format_seeds,
+    md_table,
+    table_markdown,
+    variant_order,
+)
 from evodevo.neuromod.tables import (
     ABLATIONS,
     BENCHMARK_OVERHEAD,
     STATS_NOTE,
     TABLES,
-    ContinualTable,
-    _csv,
-    _md_table,
-    _variant_order,
     budget_paragraph,
     continual_csv,
     continual_records,
-    continual_runs_csv,
-    continual_table,
     finals_by_seed,
     fmt_difference,
-    format_seeds,
     paired_difference,
     report_tables,
     run_dir_name,
     run_facts,
     seeds_sentence,
     table_continual,
-    table_markdown,
 )
 from evodevo.parallel import make_pool
 from evodevo.runs import RunDir, atomic_write_text, make_dir, read_json, write_json
@@ -214,7 +214,7 @@ def _continual(
 
 def continual_markdown(out: str | Path, reps: int = DEFAULT_REPS) -> str:
     """The continual-learning metrics of a grid folder as Markdown captions and tables
-    (:class:`~evodevo.neuromod.tables.ContinualTable`), or one line saying why there are none
+    (:class:`~evodevo.neuromod.continual_table.ContinualTable`), or one line saying why there are none
     (e.g. a run folder without ``metrics.csv``)."""
     try:
         return _continual(out, reps)[1].markdown()
@@ -238,7 +238,7 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
     for name, title, caption, header, rows in report_tables(runs):
         body = table_markdown(caption, header, rows)
         atomic_write_text(root / f"{name}.md", f"## {title}\n\n{body}\n{budget}\n")
-        text = continual_csv(runs) if name == "table_continual" else _csv(header, rows)
+        text = continual_csv(runs) if name == "table_continual" else csv_text(header, rows)
         atomic_write_text(root / f"{name}.csv", text)
         parts.append(f"## {title}\n\n{body}")
     try:
@@ -306,7 +306,7 @@ def contrast_table(dirs: Mapping[str, str | Path], variant: str = "biarm") -> st
         f"Variant {variant}; seeds {format_seeds(seeds)}; episodes per task {eps}; "
         f"tasks where a label has the strictly highest mean final return: {higher}.\n\n"
     )
-    return note + _md_table(header, rows)
+    return note + md_table(header, rows)
 
 
 __all__ += ["contrast_table"]
@@ -362,7 +362,7 @@ def _continual_budget(
     """Budget, seeds, evaluation and machine of every variant (SPEC §6)."""
     lines = []
     machine: dict[str, Any] = {}
-    for v in _variant_order(runs):
+    for v in variant_order(runs):
         seed = min(runs[v])
         saved = RunDir(where[(v, seed)], create=False).read_config()
         machine = machine or saved.get("machine", {})
@@ -395,7 +395,7 @@ def write_continual_table(paths: Sequence[str | Path], out: str | Path) -> Path:
     root.mkdir(parents=True, exist_ok=True)
     title = TABLES["table_continual"][0]
     header, rows = table_continual(runs)
-    md = f"# {title}\n\n{_continual_budget(runs, where)}\n" + _md_table(header, rows)
+    md = f"# {title}\n\n{_continual_budget(runs, where)}\n" + md_table(header, rows)
     atomic_write_text(root / "table_continual.md", md)
     atomic_write_text(root / "table_continual.csv", continual_csv(runs))
     return root / "table_continual.md"

@@ -14,7 +14,7 @@ from typing import Any
 from evodevo.baselines.table_4_2 import build_table
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.compare import collect
-from evodevo.neuromod.tables import format_seeds
+from evodevo.neuromod.table_format import format_seeds
 from evodevo.reproduce.biarm_protocols import grids
 from evodevo.reproduce.budget import ReproduceConfig, preset
 from evodevo.reproduce.pipeline import finished, kuka_run_dir

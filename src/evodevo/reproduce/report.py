@@ -18,14 +18,8 @@ from evodevo.grn.ablation_pooling import (
     read_ablation_tables,
 )
 from evodevo.neuromod.compare import CL_TITLE, collect, continual_markdown
-from evodevo.neuromod.tables import (
-    STATS_NOTE,
-    format_seeds,
-    report_tables,
-    run_facts,
-    seeds_sentence,
-    table_markdown,
-)
+from evodevo.neuromod.table_format import format_seeds, table_markdown
+from evodevo.neuromod.tables import STATS_NOTE, report_tables, run_facts, seeds_sentence
 from evodevo.reproduce.biarm_differences import biarm_differences
 from evodevo.reproduce.biarm_protocols import grids, protocol_table
 from evodevo.reproduce.budget import GrnBudget, ReproduceConfig, preset
