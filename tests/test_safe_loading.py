@@ -449,6 +449,7 @@ def test_grn_genome_load_refuses_a_planted_genome(grn_run, tmp_path, content):
     _refused(lambda: evodevo.load(run), planted, marker)
 
 
+@pytest.mark.filterwarnings("ignore:Detected pickle protocol")
 @pytest.mark.parametrize("kind", sorted(PAYLOADS))
 def test_grn_encoder_load_refuses_a_planted_encoder(tmp_path, kind):
     from evodevo.grn.encoder import Encoder

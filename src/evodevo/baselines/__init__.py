@@ -7,6 +7,9 @@
 * :mod:`~evodevo.baselines.kuka_runner` — run directories: train, resume, load for evaluation.
 * :mod:`~evodevo.baselines.table_4_2` — the comparison table (Markdown and CSV).
 * :mod:`~evodevo.baselines.sb3_dqn_tasks` — BIARM's ``sb3-dqn`` baseline: an SB3 DQN per task.
+* :mod:`~evodevo.baselines.kuka_cnn` — the Table 4.1 image encoder of PPO and TD3.
+* :mod:`~evodevo.baselines.sb3_files` — SB3 models and replay buffers saved without pickle.
+* :mod:`~evodevo.baselines.neat_files` — NEAT genomes and populations as JSON.
 """
 
 from evodevo.trainers import register_trainer

@@ -210,11 +210,11 @@ def _policy(path: str | Path, algo: str, state: dict[str, Any]) -> Any:
     name = state.get("policy_class")
     if name not in aliases:
         raise _bad(path, f"names the policy {name!r}, not one of {sorted(aliases)}")
-    params = _decode_params(path, state.get("policy_params"))
     try:
+        params = _decode_params(path, state.get("policy_params"))
         with torch.random.fork_rng(devices=[]):  # the initial weights are overwritten
             policy = aliases[name](lr_schedule=_no_schedule, **params)
-    except (TypeError, ValueError, KeyError, AssertionError, RuntimeError) as exc:
+    except (TypeError, ValueError, KeyError, AssertionError, RuntimeError, AttributeError) as exc:
         raise _bad(path, f"describes a policy SB3 cannot build ({exc})") from None
     weights = state.get("policy")
     if not isinstance(weights, dict):
@@ -320,7 +320,10 @@ def load_replay_buffer(model: Any, path: str | Path) -> None:
             f"replay buffer {str(p)!r} is corrupt or truncated ({exc}); delete it to resume "
             "with a refilled buffer"
         ) from None
-    pos, full = int(saved.get("pos", -1)), bool(saved.get("full", False))
+    try:
+        pos, full = int(saved.get("pos", -1)), bool(saved.get("full", False))
+    except (TypeError, ValueError):
+        pos, full = -1, False
     n = rb.buffer_size if full else pos
     for name in _BUFFER_ARRAYS:
         mine = getattr(rb, name, None)
