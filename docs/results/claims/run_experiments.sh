@@ -45,7 +45,32 @@ e3a() {  # the lateral scale of E3 (selection seeds 100-102; never reported)
   done
 }
 
-for e in "${@:-E1 E3A E2}"; do
+grn_arm() {  # grn_arm SRC ARM SEED ARGS...: evolve (resuming) and test on the locked range
+  local src=$1 arm=$2 seed=$3; shift 3
+  local run="$out/regulation/${arm}_s$seed"
+  if [ ! -f "$run/summary.json" ]; then
+    local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evolve --preset vision --seed "$seed" \
+      --workers 2 --quiet "${resume[@]}" "$@" --out "$run"
+  fi
+  if [ ! -f "$run/test_locked.json" ]; then
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
+      --objects test --test-seed 1000000 --no-baselines --workers 2 --json > "$run/test_locked.json.part"
+    mv "$run/test_locked.json.part" "$run/test_locked.json"
+  fi
+}
+
+g1() {
+  local src; src=$(code_at 20acc0a)
+  for seed in 0 1 2 3 4 5 6 7; do
+    grn_arm "$src" grn "$seed"
+    grn_arm "$src" noreg "$seed" --set genome.regulation=false
+    grn_arm "$src" linear "$seed" --controller linear
+    grn_arm "$src" mlp "$seed" --controller mlp
+  done
+}
+
+for e in "${@:-E1 E3A G1 E2}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
