@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 import torch
+from safetensors import safe_open
+from safetensors.torch import save as safetensors_bytes
 
 from evodevo.errors import CheckpointError
 from evodevo.runs import atomic_write_bytes
@@ -182,8 +184,6 @@ def save_state(path: str | Path, kind: str, state: Mapping[str, Any]) -> None:
     Raises:
         TypeError: ``state`` holds a value that only pickle could store (a bug in the caller).
     """
-    from safetensors.torch import save
-
     enc = _Encoder()
     skeleton = enc.encode(dict(state), kind)
     meta = {
@@ -192,12 +192,10 @@ def save_state(path: str | Path, kind: str, state: Mapping[str, Any]) -> None:
         "kind": kind,
         "state": json.dumps(skeleton, allow_nan=True),
     }
-    atomic_write_bytes(path, save(enc.tensors, metadata=meta))
+    atomic_write_bytes(path, safetensors_bytes(enc.tensors, metadata=meta))
 
 
 def _read(p: Path) -> tuple[dict[str, str], dict[str, torch.Tensor]]:
-    from safetensors import safe_open
-
     with safe_open(str(p), framework="pt", device="cpu") as fh:  # type: ignore[no-untyped-call]
         meta = dict(fh.metadata() or {})
         tensors = {k: fh.get_tensor(k) for k in fh.keys()}  # noqa: SIM118 (not a dict)
