@@ -3,7 +3,7 @@
 Used by the BIARM trainer (:mod:`evodevo.neuromod.trainer`) and the SB3 DQN baseline
 (:mod:`evodevo.baselines.sb3_dqn_tasks`) for the ``wall_seconds`` / ``cpu_seconds`` /
 ``timing_complete`` keys of their ``summary.json``: the cost of a run, reported beside its
-returns (issue 21's ≤ 20 CPU-min goal).
+returns (the cost per full run that docs/results/biarm.md states).
 """
 
 from __future__ import annotations

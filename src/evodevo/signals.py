@@ -1,4 +1,4 @@
-"""Graceful stop on SIGINT/SIGTERM (issue 5): finish the current unit, checkpoint, exit cleanly.
+"""Graceful stop on SIGINT/SIGTERM: finish the current unit, checkpoint, exit cleanly.
 
 Inside :class:`GracefulStop` the first SIGINT or SIGTERM only sets :attr:`GracefulStop.requested`;
 a training loop checks it after each unit of work (a generation, an episode, a task) — after

@@ -1,6 +1,6 @@
 """A camera env seen through a visual front-end: observations are the front-end's features.
 
-Issue 22 item 5 ("the same front-end for the baselines"): PPO on the vision preset's inputs
+The same front-end for the baselines: PPO on the vision preset's inputs
 reads what the GRN reads — the blob localiser's 4 features ``[dx, dy, size, found]``
 (:mod:`evodevo.grn.frontends`, SPEC §2.2) — instead of the raw 48×48 image. The wrapper keeps
 the front-end's per-episode state (the target found on the first frame), resets it with the

@@ -106,7 +106,7 @@ class PpoConfig:
         "image",
         "what the policy reads: image (the 48x48 camera image through the trained CNN, Table "
         "4.1) or blob (the vision preset's 4 image-only object-localising features, an MLP "
-        "policy; issue 22)",
+        "policy)",
     )
 
     def validate(self) -> None:
@@ -172,7 +172,7 @@ class NeatConfig:
     encoder: str = doc(
         "cnn",
         "visual front-end the networks read: cnn (the thesis' 128 random-CNN features) or blob "
-        "(the vision preset's 4 image-only object-localising features, issue 22)",
+        "(the vision preset's 4 image-only object-localising features)",
     )
 
     def validate(self) -> None:

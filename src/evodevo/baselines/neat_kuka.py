@@ -3,7 +3,7 @@
 neat-python evolves the networks (front-end features → one tanh output per action);
 everything else is the GRN's: the visual front-end (``neat.encoder``: the fixed random CNN of
 the run seed, 128 features, ``encoder.pt``; or the vision preset's blob localiser, 4 features,
-``frontend.npz``; issue 22), the :class:`~evodevo.grn.evaluator.Evaluator` and its worker pool,
+``frontend.npz``), the :class:`~evodevo.grn.evaluator.Evaluator` and its worker pool,
 the training episodes of each generation (common random numbers: every genome sees the same
 ones), and Eq. 4.6 as fitness, minus the GRN's shaped term when ``evaluation.distance_weight``
 is set (``evaluation.distance_at``, SPEC §2.4).

@@ -81,7 +81,7 @@ class Sb3Policy:
     def __init__(self, config: Any, n_actions: int) -> None:
         self.n_actions = int(n_actions)
         self._models: dict[Sb3Model, Any] = {}
-        # ppo.encoder: blob -> the model reads the blob front-end's features (issue 22); the
+        # ppo.encoder: blob -> the model reads the blob front-end's features; the
         # calibration is deterministic, so it is the one the model was trained with
         self.frontend: Any = None
         self.visual_noise = 0.0

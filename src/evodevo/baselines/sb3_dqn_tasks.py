@@ -1,4 +1,4 @@
-"""Stable-Baselines3 DQN, one fresh model per task: the ``sb3-dqn`` BIARM baseline (issue 4).
+"""Stable-Baselines3 DQN, one fresh model per task: the ``sb3-dqn`` BIARM baseline.
 
 What a standard library gets on the task sequence of SPEC §1 without any continual-learning
 machinery: for every task a new :class:`stable_baselines3.DQN` is built and trained on that

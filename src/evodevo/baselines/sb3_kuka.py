@@ -242,7 +242,7 @@ def prune_checkpoints(folder: Path, keep: int) -> None:
 
 def _vec_env(cfg: KukaBaselineConfig) -> VecTransposeImage | DummyVecEnv:
     env = make_env(cfg.env.id, cfg.env.kwargs, test_objects=False)
-    if uses_blob(cfg):  # the vision preset's features (issue 22), not the image
+    if uses_blob(cfg):  # the vision preset's features, not the image
         from evodevo.baselines.feature_env import FeatureObservation
         from evodevo.baselines.policies import blob_frontend
 

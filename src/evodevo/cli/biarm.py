@@ -308,7 +308,7 @@ def sweep(
     out: Path = typer.Option(..., help="Sweep folder (OUT/PROTOCOL/TASK/VARIANT__sSEED)."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
-    """The DQN protocol sweep (SPEC 1.6, issue 21): each task alone, per protocol.
+    """The DQN protocol sweep (SPEC 1.6): each task alone, per protocol.
 
     Finished runs are skipped, interrupted ones resume; the table (OUT/sweep.md) covers every
     finished run of the selection.

@@ -166,7 +166,7 @@ def evolve(
     preset: str = typer.Option(
         "vision",
         help="Without --config: vision (configs/grn_vision.yaml: blob front-end, substeps, shaped "
-        "training fitness; issue 22) or thesis (configs/grn.yaml, the thesis protocol).",
+        "training fitness) or thesis (configs/grn.yaml, the thesis protocol).",
     ),
     env_id: str | None = typer.Option(
         None,
@@ -225,7 +225,7 @@ def evolve(
     if resume and config is None:
         saved = read_json(out / "config.json").get("config", {})
         cfg = load_config(GrnConfig, None, merge(saved, ov))
-    elif config is None:  # the default preset sees (issue 22); --preset thesis: the thesis
+    elif config is None:  # the default preset sees; --preset thesis: the thesis
         from evodevo.grn.config import vision_preset
 
         if preset not in ("vision", "thesis"):

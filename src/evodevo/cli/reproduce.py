@@ -1,4 +1,4 @@
-"""``evodevo reproduce``: one command that reruns both methods and writes a report (issue 7)."""
+"""``evodevo reproduce``: one command that reruns both methods and writes a report."""
 
 from __future__ import annotations
 

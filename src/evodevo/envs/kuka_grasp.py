@@ -1,4 +1,4 @@
-"""The automatic grasp of ``evodevo/KukaDiverseObject-v0`` (SPEC §3; issue 24, item 4).
+"""The automatic grasp of ``evodevo/KukaDiverseObject-v0`` (SPEC §3).
 
 Once the end effector is low enough the original closes the fingers for
 :data:`GRASP_CLOSE_STEPS` simulation steps and then lifts for :data:`GRASP_LIFT_STEPS` steps; the

@@ -563,7 +563,7 @@ VISION_PRESET: dict[str, Any] = {
     },
     "evaluation": {"distance_weight": 1.0},
 }
-"""The default preset of ``evodevo grn evolve`` (issue 22): what differs from the thesis
+"""The default preset of ``evodevo grn evolve``: what differs from the thesis
 defaults (``configs/grn.yaml``). ``configs/grn_vision.yaml`` spells it out; a test checks both
 agree. Values chosen by measurement (docs/results/grn.md)."""
 

@@ -427,7 +427,7 @@ class Evaluator:
         state: Any = encoder
         if isinstance(encoder, Encoder):
             state = {k: v.clone() for k, v in encoder.weights().items()}
-        # backend "local": in-process or a process pool; "ray": Ray actors (issue 5). Either
+        # backend "local": in-process or a process pool; "ray": Ray actors. Either
         # way each worker builds its environments once and the results are the same.
         self.pool = make_pool(
             backend,

@@ -613,7 +613,7 @@ def evolve_run(
         Evaluator(config, encoder, workers=workers, backend=backend, address=address) as evaluator,
     ):
         controller = make_controller(config, evaluator.n_actions)
-        # Checkpoint first, then report, then stop cleanly if SIGINT/SIGTERM arrived (issue 5).
+        # Checkpoint first, then report, then stop cleanly if SIGINT/SIGTERM arrived.
         all_hooks: list[Hook] = [Checkpointer(run)]
         if progress:
             all_hooks.append(ProgressPrinter())

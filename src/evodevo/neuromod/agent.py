@@ -3,7 +3,7 @@
 :class:`BiarmAgent` is the same class for every variant; the :class:`Variant` decides whether
 laterals are gated, whether the modules run (Eq. 3.1-3.6), drive the learning rate (Eq. 3.7)
 and the context gate (Eq. 3.8), and which modules are ablated. The ``finetune`` and ``ewc``
-baselines (issue 4) swap the column stack for one shared body with per-task heads
+baselines swap the column stack for one shared body with per-task heads
 (:class:`~evodevo.neuromod.shared_net.SharedNet`); ``ewc`` adds the Eq. 2.4 penalty to every
 gradient step and consolidates the Fisher at the end of each task (:meth:`end_task`).
 

@@ -11,7 +11,7 @@ with the thesis' numbers beside ours, and the continual-learning metrics of SPEC
 forgetting, backward transfer, episodes to threshold; ``table_cl_metrics.md/.csv``,
 ``table_cl_paired.csv``, ``table_cl_runs.csv``).
 :func:`write_continual_table` (``evodevo compare biarm``) writes the extended Table 3.2/3.5 --
-every variant, the continual baselines of issue 4 included, with final return, retention and
+every variant, the continual baselines included, with final return, retention and
 the forgetting measure of Eq. 1.4 (:mod:`evodevo.neuromod.forgetting`) -- from any set of run
 directories.
 """

@@ -111,7 +111,7 @@ class DQNConfig:
     per_task: dict[str, dict[str, Any]] = doc(
         {"CartPole-v1": {"grad_clip": 1.0}},
         "overrides of the keys above for one task, by Gymnasium id (every other task keeps the "
-        "values above); the default clips CartPole's gradient norm at 1 (issue 21; {} in "
+        "values above); the default clips CartPole's gradient norm at 1 ({} in "
         "protocols v3, scaled, v2, v1)",
     )
 

@@ -1,4 +1,4 @@
-"""The forgetting measure of thesis Eq. 1.4 and the returns it needs (SPEC §1.7; issue 4).
+"""The forgetting measure of thesis Eq. 1.4 and the returns it needs (SPEC §1.7).
 
 Eq. 1.4 (Chaudhry et al. 2018, thesis ref. [71]):
 

@@ -1,4 +1,4 @@
-"""The DQN protocol sweep that picks SPEC §1.6's unstated details by measurement (issue 21).
+"""The DQN protocol sweep that picks SPEC §1.6's unstated details by measurement.
 
 Table 3.1 fixes batch, learning rate, optimiser, discount, buffer, the ε start/floor/"rate
 0.995" and the episodes; it leaves open what ε decays per, the target network, double

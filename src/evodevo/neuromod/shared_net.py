@@ -1,4 +1,4 @@
-"""One shared network with a Q-head per task: the fine-tuning and EWC baselines (issue 4).
+"""One shared network with a Q-head per task: the fine-tuning and EWC baselines.
 
 The body is the first column of SPEC §1.2 -- two hidden layers of ``hidden`` ReLU units on the
 padded input ``phi(x)`` of Eq. 3.10, Xavier-uniform weights, zero biases -- but it is shared by

@@ -6,7 +6,7 @@ which modules are ablated (held at 0.5), and whether a consolidation penalty pro
 tasks (``consolidation``). Every variant except ``sb3-dqn`` runs through the same training
 loop (:mod:`evodevo.neuromod.trainer`); ``sb3-dqn`` is Stable-Baselines3's own DQN, one fresh
 model per task (:mod:`evodevo.baselines.sb3_dqn_tasks`), the "what a standard library gets"
-reference of issue 4.
+reference.
 
 * ``progressive``: one column per task, earlier columns frozen (SPEC §1.2).
 * ``shared``: ONE 2x128 ReLU body on the padded input (Eq. 3.10) and one linear Q-head per
@@ -43,7 +43,7 @@ Architecture = Literal["progressive", "shared", "sb3"]
 
 @dataclass(frozen=True)
 class Variant:
-    """One row of Tables 3.2 / 3.4 / 3.5 (and the continual baselines of issue 4).
+    """One row of Tables 3.2 / 3.4 / 3.5 (and the continual baselines).
 
     Attributes:
         name: CLI name.
@@ -83,7 +83,7 @@ VARIANTS: dict[str, Variant] = {
     "single": Variant("single", False, False, lateral=False),
 }
 
-#: The continual-learning baselines of issue 4 (part 2), in table order.
+#: The continual-learning baselines, in table order.
 CONTINUAL_BASELINES: tuple[str, ...] = ("finetune", "ewc", "sb3-dqn")
 
 

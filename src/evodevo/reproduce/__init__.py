@@ -1,4 +1,4 @@
-"""``evodevo reproduce``: rerun both methods at a budget and write one report (issue 7).
+"""``evodevo reproduce``: rerun both methods at a budget and write one report.
 
 * :mod:`evodevo.reproduce.budget` -- the typed budget config (``quick`` and ``thesis`` presets).
 * :mod:`evodevo.reproduce.pipeline` -- the resumable list of CLI steps.

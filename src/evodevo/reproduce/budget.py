@@ -1,4 +1,4 @@
-"""Budgets of ``evodevo reproduce`` (issue 7): what is run, with how many seeds and episodes.
+"""Budgets of ``evodevo reproduce``: what is run, with how many seeds and episodes.
 
 ``thesis`` is the full protocol of SPEC §1 and §2 (the thesis' own budgets, our seed counts);
 ``quick`` is the same pipeline shrunk to minutes on 2 cores (``make run``; measured times in
@@ -24,7 +24,7 @@ __all__ = [
     "PRESETS",
 ]
 
-#: every variant of ``biarm train``: the six of Chapter 3 and the continual baselines (issue 4)
+#: every variant of ``biarm train``: the six of Chapter 3 and the continual baselines
 BIARM_VARIANTS = tuple(VARIANTS)
 
 
@@ -102,7 +102,7 @@ class GrnBudget:
     controllers: list[str] = doc(
         ["plain", "neuromodulated", "vision"],
         "GRN controller kinds to evolve (SPEC §2, §5), thesis preset; vision = the plain GRN "
-        "with the default preset (blob front-end, issue 22), beside them in the report",
+        "with the default preset (blob front-end), beside them in the report",
     )
     vision_budget: str = doc(
         "same",
@@ -132,7 +132,7 @@ KUKA_METHODS = ("ppo", "td3", "neat")
 
 @dataclass
 class KukaBaselinesBudget:
-    """Kuka grasping baselines of thesis Table 4.2 (SPEC §4, issue 4).
+    """Kuka grasping baselines of thesis Table 4.2 (SPEC §4).
 
     Each baseline trains for the environment steps of the GRN evolution with the same seed
     (``baselines kuka --budget-from``) times each of ``budget_scales``, then is tested on the
@@ -188,7 +188,7 @@ QUICK = {
         "episodes_scale": 0.05,
         # CartPole at 250 of its 400 episodes: under the default protocol PNN seed 0 validates
         # at 192 after 125 episodes, 118 after 150 and 500 from 200 on (docs/results/
-        # biarm_sweep), so 250 leaves a margin for the greedy return >= 195 of issue 21; the
+        # biarm_sweep), so 250 leaves a margin for the greedy return >= 195 that make run checks; the
         # other tasks at 0.05x only show they run
         "task_episodes": {"CartPole-v1": 250},
         "eval_episodes": 3,

@@ -1,4 +1,4 @@
-"""Kuka part of the reproduction report (issue 7): thesis Table 4.2 per budget scale, each
+"""Kuka part of the reproduction report: thesis Table 4.2 per budget scale, each
 baseline run paired with the trivial policies and its seed's GRN, and the runs not finished yet
 (SPEC §4, §6)."""
 

@@ -1,4 +1,4 @@
-"""The resumable pipeline of ``evodevo reproduce`` (issue 7).
+"""The resumable pipeline of ``evodevo reproduce``.
 
 Each step is one ``evodevo`` CLI call run as a subprocess (the CLI is the contract, so the
 pipeline does not depend on any package's internals). A step whose outputs exist is skipped, so
@@ -71,7 +71,7 @@ def finished(path: Path) -> bool:
 def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list[str]]]:
     """(label, controller, seed, extra evolve flags) of every GRN evolution."""
     g = cfg.grn
-    # "vision" is the plain GRN with the default preset (issue 22: blob front-end, substeps,
+    # "vision" is the plain GRN with the default preset (blob front-end, substeps,
     # shaped training fitness); every other label runs the thesis preset (configs/grn.yaml).
     thesis = ["--preset", "thesis"]
 

@@ -1,4 +1,4 @@
-"""``report.md`` and ``report.html`` of ``evodevo reproduce`` (issue 7), from saved run files only.
+"""``report.md`` and ``report.html`` of ``evodevo reproduce``, from saved run files only.
 
 Every table sits beside the thesis' number, names its budget, seeds, object split and machine
 (SPEC §6), and ends with a short "where we differ and why" that is computed from the numbers in

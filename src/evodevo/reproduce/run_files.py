@@ -1,4 +1,4 @@
-"""Reading the saved files of finished runs for the reproduction report (issue 7): JSON
+"""Reading the saved files of finished runs for the reproduction report: JSON
 results, per-episode successes, and the paired per-episode comparison (SPEC §6)."""
 
 from __future__ import annotations
