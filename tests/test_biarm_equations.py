@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, ModuleConfig
 from evodevo.neuromod.evaluation import improvement, retention
-from evodevo.neuromod.lr_modulation import effective_lr, set_lr
+from evodevo.neuromod.lr_modulation import effective_lr
 from evodevo.neuromod.modules import Neuromodulators, ema_update, novelty_decay
 from evodevo.neuromod.padding import check_fits, phi, phi_into
 
@@ -40,9 +40,21 @@ def test_eq_3_5_novelty_hand_case():
 def test_eq_3_7_lr_hand_case():
     # 1e-3 * (0.3*1 + 0.2*0 + 0.3*0.5 + 0.2*0.25) = 1e-3 * 0.5
     assert effective_lr(1e-3, [1.0, 0.0, 0.5, 0.25], [0.3, 0.2, 0.3, 0.2]) == pytest.approx(5e-4)
-    opt = torch.optim.Adam([torch.nn.Parameter(torch.zeros(1))], lr=1.0)
-    set_lr(opt, 0.25)
-    assert opt.param_groups[0]["lr"] == 0.25
+
+
+def test_eq_3_7_is_the_rate_the_agent_trains_with():
+    """BiarmAgent.lr() is Eq. 3.7 of the module states (v1: as written, eta_base/2 at rest)."""
+    from evodevo.neuromod.agent import BiarmAgent
+    from evodevo.neuromod.config import BiarmConfig
+    from evodevo.neuromod.variants import get_variant
+
+    cfg = BiarmConfig()
+    cfg.modules.lr_relative = False
+    agent = BiarmAgent(cfg, get_variant("biarm"), obs_dim=4, seed=0)
+    # the weights are held as float32 internally
+    assert agent.lr() == pytest.approx(effective_lr(1e-3, [0.5] * 4, [0.3, 0.2, 0.3, 0.2]))
+    assert agent.lr() == pytest.approx(5e-4)
+    assert BiarmAgent(cfg, get_variant("pnn"), obs_dim=4, seed=0).lr() == 1e-3
 
 
 def test_eq_3_10_padding():

@@ -29,6 +29,7 @@ from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
 from evodevo.neuromod.flat_params import FlatParams, adam_step, flatten, flatten_adam_state
 from evodevo.neuromod.kernels import load as load_kernel
+from evodevo.neuromod.lr_modulation import effective_lr
 from evodevo.neuromod.modules import Neuromodulators
 from evodevo.neuromod.replay import Batch, ReplayBuffer
 from evodevo.neuromod.shared_net import HeadView, SharedNet
@@ -177,9 +178,7 @@ class BiarmAgent:
         base = self.dqn.lr
         if self.modules is None:
             return base
-        w0, w1, w2, w3 = self._lr_w
-        s0, s1, s2, s3 = self.modules._s.tolist()
-        return base * (w0 * s0 + w1 * s1 + w2 * s2 + w3 * s3)
+        return effective_lr(base, self.modules._s.tolist(), self._lr_w)
 
     def gate(self) -> float:
         """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
