@@ -420,7 +420,7 @@ def test_runs_written_before_lateral_init_resume_as_xavier(tmp_path):
     """A config.json without ``network.lateral_init`` (older runs) resumes under ``xavier`` and
     is refused under ``zero``."""
     from evodevo.errors import CheckpointError
-    from evodevo.neuromod.trainer import _check_resume
+    from evodevo.neuromod.resume import check_resume
     from evodevo.runs import RunDir
 
     run = RunDir(tmp_path / "old")
@@ -428,10 +428,10 @@ def test_runs_written_before_lateral_init_resume_as_xavier(tmp_path):
     old = {"variant": "pnn", "seed": 0, **to_dict(cfg)}
     del old["network"]["lateral_init"]
     run.write_config(old, kind="biarm")
-    _check_resume(run, get_variant("pnn"), 0, cfg)
+    check_resume(run, get_variant("pnn"), 0, cfg)
     cfg.network.lateral_init = "zero"
     with pytest.raises(CheckpointError, match="network"):
-        _check_resume(run, get_variant("pnn"), 0, cfg)
+        check_resume(run, get_variant("pnn"), 0, cfg)
 
 
 def test_runs_written_before_per_task_resume_without_it(tmp_path):
@@ -439,7 +439,7 @@ def test_runs_written_before_per_task_resume_without_it(tmp_path):
     per-task settings, not with today's default (CartPole clipped at 1): ``train --resume``
     reads it so, and the consistency check accepts it."""
     from evodevo.cli.biarm import _resume_settings
-    from evodevo.neuromod.trainer import _check_resume
+    from evodevo.neuromod.resume import check_resume
     from evodevo.runs import RunDir
 
     run = RunDir(tmp_path / "old")
@@ -450,7 +450,7 @@ def test_runs_written_before_per_task_resume_without_it(tmp_path):
     variant, seed, resumed = _resume_settings(run.path, None, None, own_config=False)
     assert (variant, seed) == ("pnn", 3) and resumed.dqn.per_task == {}
     assert to_dict(resumed) == to_dict(cfg)
-    _check_resume(run, get_variant("pnn"), 3, resumed)
+    check_resume(run, get_variant("pnn"), 3, resumed)
 
 
 def test_the_resolver_applies_preset_then_file_then_set_then_flags(tmp_path):

@@ -175,6 +175,18 @@ class RunDir:
         p.mkdir(exist_ok=True)
         return p
 
+    def check_same_config(
+        self, mine: Mapping[str, Any], keys: Sequence[str], theirs: Mapping[str, Any]
+    ) -> None:
+        """``--resume``: refuse to continue when a key of the saved config (``theirs``, as the
+        method reads it from ``config.json``) differs from this run's (``mine``)."""
+        for key in keys:
+            if theirs.get(key) != mine.get(key):
+                raise CheckpointError(
+                    f"--resume: {key} of {str(self.path)!r} ({theirs.get(key)!r}) differs from "
+                    f"this run's ({mine.get(key)!r}); use the same options or another --out"
+                )
+
     def write_config(self, config: Mapping[str, Any], kind: str) -> None:
         """Save the resolved config with the run's kind, machine and start time."""
         write_json(

@@ -76,10 +76,11 @@ from stable_baselines3.common.logger import Logger
 
 from evodevo.baselines.sb3_files import MODEL_SUFFIX, load_sb3_policy, save_sb3
 from evodevo.config import to_dict
-from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, retention
 from evodevo.neuromod.keep_best import BestColumn
+from evodevo.neuromod.resume import check_resume
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.trainer import METRIC_FIELDS, NEUROMOD_FIELDS, EpisodeInfo, resume_hint
 from evodevo.neuromod.variants import Variant
@@ -336,17 +337,6 @@ def _train_one(
     return model, callback
 
 
-def _check_resume(run: RunDir, var: Variant, seed: int, cfg: BiarmConfig) -> None:
-    theirs = run.read_config().get("config", {})
-    mine = {"variant": var.name, "seed": seed, **to_dict(cfg)}
-    for key in ("variant", "seed", "tasks", "episodes_scale", "dqn", "network"):
-        if theirs.get(key) != mine.get(key):
-            raise CheckpointError(
-                f"--resume: {key} of {str(run.path)!r} ({theirs.get(key)!r}) differs from this "
-                f"run's ({mine.get(key)!r}); use the same options or another --out"
-            )
-
-
 def _keep_rows(run: RunDir, name: str, fields: list[str], tasks_done: int) -> None:
     """Drop the rows of tasks that did not finish (resume)."""
     if (run / name).is_file():
@@ -375,7 +365,7 @@ def train_sb3_tasks(
             "it or choose another --out"
         )
     if resume and (run / "config.json").is_file():
-        _check_resume(run, variant, seed, cfg)
+        check_resume(run, variant, seed, cfg)
     else:
         run.write_config({"variant": variant.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
     results: list[dict[str, Any]] = []

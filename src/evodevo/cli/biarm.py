@@ -72,7 +72,7 @@ def _resume_settings(
     """Variant, seed and config saved in OUT/config.json (for ``train --resume``)."""
     from evodevo.config import from_dict
     from evodevo.neuromod.config import BiarmConfig
-    from evodevo.neuromod.trainer import saved_config
+    from evodevo.neuromod.resume import saved_config
     from evodevo.runs import read_json
 
     saved = read_json(out / "config.json")

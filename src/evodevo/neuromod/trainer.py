@@ -44,6 +44,7 @@ from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, retention
 from evodevo.neuromod.forgetting import record_returns_after
 from evodevo.neuromod.keep_best import VALIDATION_FIELDS, BestColumn
 from evodevo.neuromod.replay import ReplayBuffer
+from evodevo.neuromod.resume import check_resume, saved_config
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.variants import Variant, get_variant
 from evodevo.run_clock import RunClock
@@ -325,48 +326,6 @@ def _truncate_csv(run: RunDir, name: str, fields: list[str], last_step: int) -> 
     run.write_csv(name, rows, fields)
 
 
-#: keys added to the config after runs were saved without them -> the value those runs ran with
-_ADDED_KEYS: dict[str, dict[str, Any]] = {
-    "dqn": {"train_every": 1, "per_task": {}},
-    "network": {"lateral_init": "xavier", "lateral_scale": 1.0, "stale_padding": True},
-    "modules": {"lr_relative": False},
-}
-
-
-def saved_config(data: dict[str, Any]) -> dict[str, Any]:
-    """A run's saved ``config`` (``config.json``) with the keys added since it was written
-    filled in as that run ran (not with today's defaults), so it resumes as it started.
-
-    >>> saved_config({"dqn": {"lr": 0.001}})["dqn"]
-    {'train_every': 1, 'per_task': {}, 'lr': 0.001}
-    """
-    out = dict(data)
-    for section, added in _ADDED_KEYS.items():
-        if isinstance(out.get(section), dict):
-            out[section] = {**added, **out[section]}
-    return out
-
-
-def _check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) -> None:
-    saved = run.read_config()
-    mine = {"variant": variant.name, "seed": seed, **to_dict(cfg)}
-    theirs = saved_config(saved.get("config", {}))
-    # network.lateral_kernel picks an implementation, not the experiment: runs may resume
-    # across it (and configs written before it existed lack it)
-    for part in (theirs, mine):
-        if isinstance(part.get("network"), dict):
-            part["network"] = {k: v for k, v in part["network"].items() if k != "lateral_kernel"}
-    keys = ["variant", "seed", "tasks", "episodes_scale", "dqn", "network"]
-    if variant.modulated:  # the modules' settings change nothing in PNN, fine-tuning or EWC
-        keys.append("modules")
-    for key in keys:
-        if theirs.get(key) != mine.get(key):
-            raise CheckpointError(
-                f"--resume: {key} of {str(run.path)!r} ({theirs.get(key)!r}) differs from this "
-                f"run's ({mine.get(key)!r}); use the same options or another --out"
-            )
-
-
 def _check_payload(ckpt: dict[str, Any], path: Path, variant: Variant, seed: int) -> None:
     """A checkpoint copied in from another run is refused (its variant or seed differs)."""
     for key, mine in (("variant", variant.name), ("seed", seed)):
@@ -425,7 +384,7 @@ def train(
             "it or choose another --out"
         )
     if resume and (run / "config.json").is_file():
-        _check_resume(run, var, seed, cfg)
+        check_resume(run, var, seed, cfg)
     else:
         run.write_config({"variant": var.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
     agent = BiarmAgent(cfg, var, d_max, seed)
