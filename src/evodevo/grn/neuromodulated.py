@@ -460,27 +460,10 @@ def record_modulator_trace(path: str | Path, index: int = 0, objects: str = "tes
     The file holds the modulator states ``m`` (T, 4), the expression ``x`` (T, n) and the
     actions (T, A) after every step, for :func:`evodevo.grn.figures.plot_modulator_trace`.
     """
-    from evodevo.grn.evaluation import test_episodes
-    from evodevo.grn.evaluator import action_dims, make_env, run_episodes
+    from evodevo.grn.recording import episode_meta, record_episode
 
     loaded = _loaded_neuromod(path)
-    cfg = loaded.config
-    ep = test_episodes(cfg.evaluation.test_seed, index + 1, objects == "test")[index]
-    extra = {"test_objects": True} if ep.test_objects else {}
-    env = make_env(cfg.env.id, cfg.env.kwargs, **extra)
-    try:
-        ctrl = NeuromodGrnController(cfg, action_dims(env.action_space))
-        res = run_episodes(
-            [env],
-            loaded.encoder,
-            ctrl,
-            [loaded.genome],
-            [ep],
-            n_proprio=cfg.sensors.n_proprio,
-            record=True,
-        )
-    finally:
-        env.close()
+    ep, res = record_episode(loaded, index, objects)
     out = loaded.run / MODULATOR_TRACE_FILE
     save_arrays(
         out,
@@ -491,11 +474,7 @@ def record_modulator_trace(path: str | Path, index: int = 0, objects: str = "tes
             "actions": np.stack([a[0] for a in res["actions"]]),
         },
         {
-            "seed": ep.seed,
-            "objects": objects,
-            "index": index,
-            "reward": float(res["reward"][0]),
-            "success": bool(res["success"][0]),
+            **episode_meta(ep, res, objects, index),
             "gamma": [float(v) for v in loaded.genome.gamma],
             "modulators": list(MODULATORS),
         },

@@ -6,32 +6,33 @@ Both run in this process with the run's saved encoder and best genome, on test e
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from evodevo.errors import EvodevoError
-from evodevo.grn.evaluation import load_run, test_episodes
-from evodevo.grn.evaluator import make_env, run_episodes
+from evodevo.grn.controller import make_controller
+from evodevo.grn.evaluation import LoadedRun, load_run, test_episodes
+from evodevo.grn.evaluator import Episode, action_dims, make_env, run_episodes
 from evodevo.grn.genome import save_arrays
 
-__all__ = ["record_trace", "record_video", "TRACE_FILE"]
+__all__ = ["record_episode", "episode_meta", "record_trace", "record_video", "TRACE_FILE"]
 
 TRACE_FILE = "trace.npz"
 
 
-def record_trace(path: str | Path, index: int = 0, objects: str = "test") -> Path:
-    """Run test episode ``index`` and save ``trace.npz`` (expression x per step, actions)."""
-    loaded = load_run(path)
+def record_episode(
+    loaded: LoadedRun, index: int = 0, objects: str = "test"
+) -> tuple[Episode, dict[str, Any]]:
+    """Run test episode ``index`` of a loaded run in this process with its controller (plain,
+    neuromodulated, ...), recording the expression (and modulator states) and actions of every
+    step: ``(episode, run_episodes result)``."""
     cfg = loaded.config
     ep = test_episodes(cfg.evaluation.test_seed, index + 1, objects == "test")[index]
-    from evodevo.grn.controller import make_controller
-
     env = make_env(cfg.env.id, cfg.env.kwargs, test_objects=ep.test_objects)
     try:
-        from evodevo.grn.evaluator import action_dims
-
         ctrl = make_controller(cfg, action_dims(env.action_space))
         res = run_episodes(
             [env],
@@ -44,20 +45,29 @@ def record_trace(path: str | Path, index: int = 0, objects: str = "test") -> Pat
         )
     finally:
         env.close()
+    return ep, res
+
+
+def episode_meta(ep: Episode, res: Mapping[str, Any], objects: str, index: int) -> dict[str, Any]:
+    """The JSON header of a recorded episode's file: seed, objects, index, reward, success."""
+    return {
+        "seed": ep.seed,
+        "objects": objects,
+        "index": index,
+        "reward": float(res["reward"][0]),
+        "success": bool(res["success"][0]),
+    }
+
+
+def record_trace(path: str | Path, index: int = 0, objects: str = "test") -> Path:
+    """Run test episode ``index`` and save ``trace.npz`` (expression x per step, actions)."""
+    loaded = load_run(path)
+    ep, res = record_episode(loaded, index, objects)
     x = np.stack([a[0] for a in res["x"]]) if res["x"] else np.zeros((0, 0))
     actions = np.stack([a[0] for a in res["actions"]])
     out = loaded.run / TRACE_FILE
     save_arrays(
-        out,
-        "grn_trace",
-        {"x": x, "actions": actions},
-        {
-            "seed": ep.seed,
-            "objects": objects,
-            "index": index,
-            "reward": float(res["reward"][0]),
-            "success": bool(res["success"][0]),
-        },
+        out, "grn_trace", {"x": x, "actions": actions}, episode_meta(ep, res, objects, index)
     )
     return out
 
@@ -67,9 +77,6 @@ def record_video(path: str | Path, out: str | Path, index: int = 0, objects: str
     loaded = load_run(path)
     cfg = loaded.config
     ep = test_episodes(cfg.evaluation.test_seed, index + 1, objects == "test")[index]
-    from evodevo.grn.controller import make_controller
-    from evodevo.grn.evaluator import action_dims
-
     env = make_env(
         cfg.env.id, cfg.env.kwargs, test_objects=ep.test_objects, render_mode="rgb_array"
     )
