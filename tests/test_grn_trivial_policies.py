@@ -19,7 +19,7 @@ def test_turn_policy_only_turns_the_gripper():
     a = pol.step(None, np.arange(4), None, np.zeros((4, 4)), [], np.zeros(4, bool))
     assert a.shape == (4, 3)
     assert np.array_equal(a, np.tile([0.0, 0.0, -1.0], (4, 1)))
-    assert set(BASELINES) == {"zero", "random", "turn", "scripted"}
+    assert set(BASELINES) == {"zero", "random", "turn", "scripted", "scripted_memory"}
 
 
 def test_baseline_file_is_completed_not_recomputed(tmp_path):

@@ -35,14 +35,15 @@ from evodevo.safe_io import legacy_error
 
 __all__ = ["Sb3Model", "Sb3Policy", "NeatNet", "NeatPolicy", "SB3_ALGOS", "load_sb3"]
 
-SB3_ALGOS = ("ppo", "td3")
-"""The Stable-Baselines3 methods of SPEC §4."""
+SB3_ALGOS = ("ppo", "td3", "recurrent_ppo")
+"""The Stable-Baselines3 methods of SPEC §4, and sb3-contrib's RecurrentPPO (the memory task)."""
 
 
 def load_sb3(algo: str, path: str | Path) -> Any:
-    """The policy of a saved SB3 model of ``algo`` ("ppo", "td3"; "dqn" for the BIARM
-    baseline), for acting: ``policy.predict(obs, deterministic=True)`` is what the model's own
-    ``predict`` returns. A clear :class:`~evodevo.errors.CheckpointError` on a mismatch."""
+    """The policy of a saved SB3 model of ``algo`` ("ppo", "td3", "recurrent_ppo"; "dqn" for
+    the BIARM baseline), for acting: ``policy.predict(obs, deterministic=True)`` is what the
+    model's own ``predict`` returns. A clear :class:`~evodevo.errors.CheckpointError` on a
+    mismatch."""
     from evodevo.baselines.sb3_files import load_sb3_policy
 
     if algo not in (*SB3_ALGOS, "dqn"):
@@ -118,9 +119,14 @@ class Sb3Policy:
         # one predict per distinct model (usually one): a batch of images in one forward pass
         for model in {id(m): m for m in models}.values():
             rows = [j for j, m in enumerate(models) if m is model]
-            actions, _ = model.predict(features[rows], deterministic=True)
-            out[rows] = np.asarray(actions, dtype=np.float64).reshape(len(rows), -1)
+            out[rows] = self.act(model, features[rows], state, np.asarray(idx)[rows])
         return out
+
+    def act(self, model: Any, obs: np.ndarray, state: Any, slots: np.ndarray) -> np.ndarray:
+        """Deterministic actions (len(slots), A) of ``model`` on ``obs``, the inputs of slots
+        ``slots`` (a recurrent policy also advances their memory in ``state``)."""
+        actions, _ = model.predict(obs, deterministic=True)
+        return np.asarray(actions, dtype=np.float64).reshape(len(obs), -1)
 
 
 @dataclass(frozen=True)
@@ -260,7 +266,10 @@ class ScriptedPolicy:
     camera's view and projection matrices; on every step the policy moves the gripper towards it
     by at most one action unit, ``(clip(dx, −1, 1), clip(dy, −1, 1), −1)``, and turns the gripper
     like the constant-turn policy. With no blob it *is* the constant turn. It reads the raw image
-    (``uses_image``) and ignores the visual-noise flag.
+    (``uses_image``) and ignores the visual-noise flag. It acts on the current frame's features:
+    on a dark frame (the Kuka env's ``dark_after``) they are 0 and it turns in place, which is
+    what a feed-forward map of the current frame can do there (:class:`RememberingScriptedPolicy`
+    remembers the target instead).
     """
 
     uses_encoder = False
@@ -287,11 +296,33 @@ class ScriptedPolicy:
         rngs: Sequence[np.random.Generator],
         noisy: np.ndarray,
     ) -> np.ndarray:
-        f = self.frontend.encode(features, proprio, state, idx)
+        f = self.features(features, proprio, state, idx)
         a = np.zeros((len(idx), 3))
         a[:, :2] = np.clip(f[:, :2], -1.0, 1.0)
         a[:, 2] = -1.0
         return a
 
+    def features(
+        self, images: np.ndarray | None, proprio: np.ndarray, state: Any, idx: np.ndarray
+    ) -> np.ndarray:
+        """The blob front-end's features of the current frame."""
+        return np.asarray(self.frontend.encode(images, proprio, state, idx))
 
-__all__ += ["ScriptedPolicy", "blob_frontend"]
+
+class RememberingScriptedPolicy(ScriptedPolicy):
+    """:class:`ScriptedPolicy` that remembers the target it localised on the first frame.
+
+    On a lit frame it acts exactly as the scripted policy; on a dark one (the Kuka env's
+    ``dark_after``) it keeps steering to the remembered target with the gripper's current pose
+    (``BlobLocaliser.held``) — the reference for a controller with memory.
+    """
+
+    def features(
+        self, images: np.ndarray | None, proprio: np.ndarray, state: Any, idx: np.ndarray
+    ) -> np.ndarray:
+        """The features of the remembered target (the first frame's localisation)."""
+        self.frontend.encode(images, proprio, state, idx)  # localises on the first lit frame
+        return np.asarray(self.frontend.held(proprio, state, idx))
+
+
+__all__ += ["ScriptedPolicy", "RememberingScriptedPolicy", "blob_frontend"]

@@ -8,7 +8,8 @@ folder somebody else sent must not run code from it, so the SB3 baselines write 
   ``checkpoints/sb3_task{i}.safetensors``) by :func:`save_sb3`: an :mod:`evodevo.safe_io`
   state file holding the algorithm, the policy class by its SB3 alias (``"CnnPolicy"``), the
   policy's constructor parameters as JSON (spaces as bounds and dtype; activation, optimiser
-  and feature-extractor classes by name, read back only from :data:`CLASSES`), the policy's
+  and feature-extractor classes by name, read back only from :data:`CLASSES`; for
+  sb3-contrib's RecurrentPPO also the LSTM's size, layers and sharing), the policy's
   ``state_dict``, the optimisers' ``state_dict`` s, and the counters a resumed run continues
   from (``num_timesteps``, ``_n_updates``, ``_episode_num``, ``learning_starts``);
 * a **replay buffer** (``checkpoints/rl_model_replay_buffer_{n}_steps.npz``, TD3) by
@@ -33,6 +34,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
+from sb3_contrib import RecurrentPPO
+from sb3_contrib.common.recurrent.policies import RecurrentActorCriticPolicy
 from stable_baselines3 import DQN, PPO, TD3
 from stable_baselines3.common.callbacks import CheckpointCallback
 from stable_baselines3.common.save_util import recursive_getattr
@@ -62,8 +65,13 @@ __all__ = [
 #: Kind of an SB3 model file (:func:`evodevo.safe_io.save_state`).
 KIND = "sb3-model"
 MODEL_SUFFIX = ".safetensors"
-#: The SB3 algorithms evodevo trains, by name.
-ALGOS: dict[str, type[Any]] = {"ppo": PPO, "td3": TD3, "dqn": DQN}
+#: The SB3 algorithms evodevo trains, by name (RecurrentPPO from sb3-contrib).
+ALGOS: dict[str, type[Any]] = {
+    "ppo": PPO,
+    "td3": TD3,
+    "dqn": DQN,
+    "recurrent_ppo": RecurrentPPO,
+}
 #: Every class a saved policy may name (activations, optimisers, feature extractors); a file
 #: naming another is refused, so loading never imports anything a file asks for.
 CLASSES: dict[str, type[Any]] = {
@@ -84,7 +92,8 @@ _BUFFER_ARRAYS = ("observations", "next_observations", "actions", "rewards", "do
 
 
 def algo_of(model: Any) -> str:
-    """``"ppo"``, ``"td3"`` or ``"dqn"`` for an SB3 model (subclasses included)."""
+    """``"ppo"``, ``"td3"``, ``"dqn"`` or ``"recurrent_ppo"`` for an SB3 model (subclasses
+    included)."""
     for name, cls in ALGOS.items():
         if isinstance(model, cls):
             return name
@@ -120,8 +129,24 @@ def _encode_params(params: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _constructor_parameters(policy: Any) -> dict[str, Any]:
+    """The keyword arguments that rebuild ``policy``: SB3's own list, and for sb3-contrib's
+    recurrent policies the LSTM's settings, which their list leaves out (its size, layers and
+    sharing would otherwise come back as the defaults, and the weights would not fit)."""
+    params = dict(policy._get_constructor_parameters())
+    if isinstance(policy, RecurrentActorCriticPolicy):
+        params.update(
+            lstm_hidden_size=int(policy.lstm_output_dim),
+            n_lstm_layers=int(policy.lstm_actor.num_layers),
+            shared_lstm=bool(policy.shared_lstm),
+            enable_critic_lstm=bool(policy.enable_critic_lstm),
+            lstm_kwargs=dict(policy.lstm_kwargs),
+        )
+    return params
+
+
 def save_sb3(model: Any, path: str | Path, training: bool = True) -> None:
-    """Write ``model`` (PPO, TD3 or DQN) as a model file (see module docstring).
+    """Write ``model`` (PPO, TD3, DQN or RecurrentPPO) as a model file (see module docstring).
 
     Args:
         model: the SB3 model.
@@ -142,7 +167,7 @@ def save_sb3(model: Any, path: str | Path, training: bool = True) -> None:
         {
             "algo": algo_of(model),
             "policy_class": aliases[type(policy)],
-            "policy_params": _encode_params(policy._get_constructor_parameters()),
+            "policy_params": _encode_params(_constructor_parameters(policy)),
             "policy": state,
             "optimizers": (
                 {n: recursive_getattr(model, n).state_dict() for n in names if n != "policy"}

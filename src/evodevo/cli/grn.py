@@ -308,10 +308,11 @@ def baselines(
     old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
     policies: str | None = typer.Option(
         None,
-        help="Comma-separated reference policies [zero,random,turn,scripted]; policies already "
-        "in --out "
-        "for the same episodes are kept, missing ones are run.",
+        help="Comma-separated reference policies [zero,random,turn,scripted; scripted_memory "
+        "when env.kwargs.dark_after is set]; policies already in --out for the same episodes "
+        "are kept, missing ones are run.",
     ),
+    set_: list[str] | None = typer.Option(None, "--set", help=SET_HELP),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """Reference policies (all-zero, uniform random, constant turn, scripted image-only pipeline)
@@ -333,7 +334,13 @@ def baselines(
 
     with CommandProgress("reference policies", quiet):
         res = evaluate_baselines(
-            load_config(GrnConfig, config), out, episodes, objects, seed, workers, policies=names
+            load_config(GrnConfig, config, parse_sets(set_)),
+            out,
+            episodes,
+            objects,
+            seed,
+            workers,
+            policies=names,
         )
     for name, b in res["baselines"].items():
         typer.echo(format_rate(name, b))

@@ -26,7 +26,9 @@ of ``pybullet`` 3.2.7, with these differences:
   (:mod:`evodevo.envs.scene_cache`; docs/kuka_env.md, "Settled-scene cache");
 * ``skip_empty_lift`` (default on): the automatic grasp's lift stops once nothing is held and
   the arm is clear above every object, when the rest of it cannot change the outcome
-  (:mod:`evodevo.envs.kuka_grasp`; docs/kuka_env.md, "Skipped lift").
+  (:mod:`evodevo.envs.kuka_grasp`; docs/kuka_env.md, "Skipped lift");
+* ``dark_after`` (default off): the camera goes dark after the first k observations, a task
+  that needs memory (docs/grn.md, "A task that needs memory").
 
 >>> import gymnasium as gym, evodevo.envs
 >>> env = gym.make("evodevo/KukaDiverseObject-v0")
@@ -201,6 +203,11 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             gripper's end pose (``evaluation.distance_weight`` > 0). ``grasps``,
             ``lifts_skipped`` and ``lift_steps_skipped`` count this instance's grasps, the lifts
             stopped early and the simulation steps saved.
+        dark_after: ``None`` (default): every observation is the camera image. An integer k:
+            the first k observations of an episode (the reset's and those of the first k − 1
+            steps) are the camera image, every later one is all zeros, so whatever the robot
+            needs from the image after that it has to remember (0: dark from the start).
+            Physics, reward and ``info`` are unchanged; ``render()`` still films the scene.
 
     Raises:
         ConfigError: An option is out of range.
@@ -228,6 +235,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         scene_cache_dir: str | None = None,
         scene_cache_entries: int = DEFAULT_MAX_ENTRIES,
         skip_empty_lift: bool = True,
+        dark_after: int | None = None,
     ) -> None:
         _check_int("num_objects", num_objects, 1)
         _check_int("max_steps", max_steps, 1)
@@ -236,6 +244,15 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         _check_int("height", height, 1)
         _check_int("rebuild_every", rebuild_every, 0)
         _check_int("scene_cache_entries", scene_cache_entries, 1)
+        if dark_after is not None and (
+            isinstance(dark_after, bool)
+            or not isinstance(dark_after, (int, np.integer))
+            or dark_after < 0
+        ):
+            raise ConfigError(
+                f"dark_after={dark_after!r} must be null (the camera never goes dark) or an "
+                "integer >= 0 (the observations seen before the camera goes dark)"
+            )
         if not isinstance(scene_cache, (bool, SceneCache)):
             raise ConfigError(
                 f"scene_cache={scene_cache!r} must be true, false or a SceneCache instance"
@@ -277,6 +294,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.deterministic_pairs = bool(deterministic_pairs)
         self.rebuild_every = int(rebuild_every)
         self.skip_empty_lift = bool(skip_empty_lift)
+        self.dark_after = None if dark_after is None else int(dark_after)
         self.grasps = 0
         self.lifts_skipped = 0
         self.lift_steps_skipped = 0
@@ -615,6 +633,8 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         return np.clip(scaled, -PROPRIO_CLIP, PROPRIO_CLIP).astype(np.float32)
 
     def _observation(self) -> np.ndarray:
+        if self.dark_after is not None and self._env_step >= self.dark_after:
+            return np.zeros((self.height, self.width, 3), dtype=np.uint8)
         return self._camera(self.width, self.height, self._proj_matrix)
 
     def _camera(self, width: int, height: int, proj: Any) -> np.ndarray:

@@ -379,7 +379,8 @@ BASELINES: dict[str, Callable[[Any, int], Any] | str] = {
 """The reference policies measured beside every result (SPEC §2.5): all-zero, uniform random,
 the constant "turn the gripper" action (last action dimension -1), and whatever the baselines
 package registers with :func:`register_baseline` (the scripted image-only pipeline,
-``scripted``: blob nearest the gripper on the first frame, move over it, turn). Values are
+``scripted``: blob nearest the gripper on the first frame, move over it, turn; and
+``scripted_memory``, the same remembering its target when the camera goes dark). Values are
 factories ``(config, n_actions)`` or ``"module:attr"`` paths, imported when first used, so
 this module never imports the baselines package."""
 
@@ -391,6 +392,7 @@ def register_baseline(name: str, factory: Callable[[Any, int], Any] | str) -> No
 
 # the scripted pipeline lives with the other baselines (evodevo.baselines.policies); by name
 register_baseline("scripted", "evodevo.baselines.policies:ScriptedPolicy")
+register_baseline("scripted_memory", "evodevo.baselines.policies:RememberingScriptedPolicy")
 
 _REGISTRY: dict[str, Callable[..., Any] | str] = {
     "plain": PlainGrnController,

@@ -206,9 +206,12 @@ KUKA_ID = "evodevo/KukaDiverseObject-v0"
 
 def default_baselines(config: GrnConfig) -> list[str]:
     """The reference policies run by default: every one of BASELINES, but the scripted
-    image-only pipeline only on the Kuka env with its height hack (it reads that camera)."""
+    image-only pipeline only on the Kuka env with its height hack (it reads that camera), and
+    its remembering twin only when that camera goes dark (``dark_after``; else they are one)."""
     kuka = config.env.id == KUKA_ID and config.env.kwargs.get("height_hack", True)
-    return [n for n in BASELINES if n != "scripted" or kuka]
+    dark = kuka and config.env.kwargs.get("dark_after") is not None
+    needs = {"scripted": kuka, "scripted_memory": dark}
+    return [n for n in BASELINES if needs.get(n, True)]
 
 
 __all__ += ["default_baselines"]

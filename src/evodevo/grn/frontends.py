@@ -19,6 +19,10 @@ A front-end is a small class with one interface, chosen by name in the config:
   picture and occludes the tray under it, so the first frame is the one view of the scene the
   robot has; the features still change every step because the gripper moves.
 
+  A dark frame (every pixel 0, as the Kuka env's ``dark_after`` gives; a lit camera never shows
+  one) carries nothing: its features are all 0 and it is not taken as the first look, so what
+  was seen before it must be remembered by the controller, not by the front-end.
+
 Every front-end is *stateful per episode* through :meth:`reset` (the CNN's state is empty):
 ``state = fe.reset(n)`` for ``n`` episode slots, then ``fe.encode(images, proprio, state, idx)``
 once per step for the still-running slots ``idx``. Features are checked finite.
@@ -240,24 +244,32 @@ class BlobLocaliser:
     def encode(
         self, images: Any, proprio: np.ndarray, state: BlobState, idx: np.ndarray
     ) -> np.ndarray:
-        """Features (len(idx), 4) = [dx, dy, size, found] for slots ``idx`` (module docstring)."""
+        """Features (len(idx), 4) = [dx, dy, size, found] for slots ``idx`` (module docstring);
+        all 0 on a dark frame."""
         imgs = self.check_images(images)
-        prop = np.asarray(proprio, dtype=np.float64)
-        ee = np.stack(
-            [_EE_CENTRE[0] + prop[:, 0] * _EE_HALF[0], _EE_CENTRE[1] + prop[:, 1] * _EE_HALF[1]],
-            axis=1,
-        )
-        out = np.zeros((len(idx), 4))
+        ee = _gripper_xy(proprio)
+        dark = np.asarray(imgs.reshape(len(imgs), -1).max(axis=1) == 0)
         for j, slot in enumerate(np.asarray(idx).tolist()):
-            if not state.seen[slot]:
+            if not dark[j] and not state.seen[slot]:
                 state.seen[slot] = True
                 hit = self.locate(imgs[j], ee[j])
                 if hit is not None:
                     state.target[slot], state.size[slot], state.found[slot] = hit[0], hit[1], True
+        out = self.held(proprio, state, idx)
+        out[dark] = 0.0
+        return check_features(out, self.name)
+
+    def held(self, proprio: np.ndarray, state: BlobState, idx: np.ndarray) -> np.ndarray:
+        """The features of the target held in ``state`` for slots ``idx``, dark frame or not:
+        what :meth:`encode` gives on a lit frame once the target is localised (zeros for a slot
+        without one). A controller that remembers what it saw reads this."""
+        ee = _gripper_xy(proprio)
+        out = np.zeros((len(idx), 4))
+        for j, slot in enumerate(np.asarray(idx).tolist()):
             if state.found[slot]:
                 d = np.clip((state.target[slot] - ee[j]) / DXY_UNIT, -DXY_CLIP, DXY_CLIP)
                 out[j] = [d[0], d[1], min(state.size[slot] / SIZE_UNIT, 2.0), 1.0]
-        return check_features(out, self.name)
+        return out
 
     # -- persistence ---------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
@@ -306,6 +318,15 @@ class BlobLocaliser:
             env.close()
         bg = np.median(np.stack(frames), axis=0).round().astype(np.uint8)
         return cls(bg)
+
+
+def _gripper_xy(proprio: np.ndarray) -> np.ndarray:
+    """The gripper's table (x, y) (m) from the normalised proprioception (the robot's pose)."""
+    prop = np.asarray(proprio, dtype=np.float64)
+    return np.stack(
+        [_EE_CENTRE[0] + prop[:, 0] * _EE_HALF[0], _EE_CENTRE[1] + prop[:, 1] * _EE_HALF[1]],
+        axis=1,
+    )
 
 
 def check_features(features: np.ndarray, name: str) -> np.ndarray:
