@@ -27,6 +27,10 @@ probability about 1/4,000 per task, and then only its first reset is shared.
 Traceback (most recent call last):
 ...
 evodevo.seed_split.SeedSplitError: eval.validation_seed=1000000 reads the locked test range (first seeds 1000000..1999999); tuning, champion and column picking may read validation seeds only (10000..999999; SPEC §6)
+>>> require_validation(5, 1, "evaluation.validation_seed")
+Traceback (most recent call last):
+...
+evodevo.seed_split.SeedSplitError: evaluation.validation_seed=5 lies in the training range; selection reads validation seeds only (10000..999999; SPEC §6)
 """
 
 from __future__ import annotations
@@ -47,6 +51,7 @@ __all__ = [
     "range_of",
     "range_label",
     "require_selection",
+    "require_validation",
 ]
 
 
@@ -128,4 +133,25 @@ def require_selection(first: int, n: int, what: str) -> None:
             f"{what}={first} reads the locked test range (first seeds {TEST.first}.."
             f"{TEST.stop - 1}); tuning, champion and column picking may read validation seeds "
             f"only ({VALIDATION.first}..{VALIDATION.stop - 1}; SPEC §6)"
+        )
+
+
+def require_validation(first: int, n: int, what: str) -> None:
+    """Selection seeds that lie inside the validation range, nowhere else.
+
+    :func:`require_selection` first (the locked test range is refused with its own message),
+    then the training range and seeds beyond every range.
+
+    Raises:
+        SeedSplitError: any of the seeds lies outside the validation range.
+    """
+    require_selection(first, n, what)
+    try:
+        where = range_of(first, n).name
+    except SeedSplitError:
+        where = "no range"
+    if where != VALIDATION.name:
+        raise SeedSplitError(
+            f"{what}={first} lies in the {where} range; selection reads validation seeds only "
+            f"({VALIDATION.first}..{VALIDATION.stop - 1}; SPEC §6)"
         )

@@ -3,8 +3,9 @@
 One :class:`KukaBaselineConfig` per run, saved resolved in the run's ``config.json`` (kind
 ``"baseline"``). Sections: ``budget`` (what every method gets: env steps and/or wall minutes),
 ``ppo`` and ``td3`` (Stable-Baselines3 settings, Table 4.1 defaults), ``neat`` (neat-python
-settings, Table 4.1 defaults), ``env`` and ``evaluation`` (the same sections, and so the same
-test seeds, as a GRN run's :class:`~evodevo.grn.config.GrnConfig`).
+settings, Table 4.1 defaults), ``keep`` (which model the run returns, :mod:`evodevo.return_rule`),
+``env`` and ``evaluation`` (the same sections, and so the same test and validation seeds, as a
+GRN run's :class:`~evodevo.grn.config.GrnConfig`).
 
 >>> cfg = KukaBaselineConfig(method="ppo")
 >>> cfg.ppo.gamma, cfg.ppo.clip_range, cfg.td3.buffer_size, cfg.neat.population
@@ -27,6 +28,7 @@ __all__ = [
     "PpoConfig",
     "Td3Config",
     "NeatConfig",
+    "KeepConfig",
     "KukaBaselineConfig",
 ]
 
@@ -195,6 +197,36 @@ class NeatConfig:
 
 
 @dataclass
+class KeepConfig:
+    """Which model a trained baseline returns (SPEC §6: one rule per table; evodevo.return_rule)."""
+
+    rule: str = doc(
+        "last",
+        "last (NEAT: the last generation's best; PPO/TD3: the final model; the thesis) or "
+        "validated (candidates: NEAT every generation's best by training fitness, PPO/TD3 a "
+        "snapshot every every_steps env steps and the final model; the run returns the one with "
+        "the most successes on evaluation.validation_episodes clean training-object episodes "
+        "from evaluation.validation_seed, the later on a tie; not training budget)",
+    )
+    candidates: int = doc(
+        15,
+        "PPO/TD3: snapshots spread evenly over the env-step budget, one every "
+        "ceil(steps / candidates) env steps (15: as many as the GRN's and NEAT's generations)",
+    )
+    every_steps: int | None = doc(
+        None,
+        "PPO/TD3: env steps between snapshots instead (null: from candidates; needed with a "
+        "wall-clock budget alone)",
+    )
+
+    def validate(self) -> None:
+        if self.rule not in ("last", "validated"):
+            raise ConfigError(f"keep.rule must be one of ['last', 'validated'], got {self.rule!r}")
+        _positive("candidates", self.candidates)
+        _positive("every_steps", self.every_steps)
+
+
+@dataclass
 class KukaBaselineConfig:
     """Everything a Kuka baseline run needs (SPEC §4). Saved in ``config.json`` of the run."""
 
@@ -204,6 +236,7 @@ class KukaBaselineConfig:
     ppo: PpoConfig = field(default_factory=PpoConfig)
     td3: Td3Config = field(default_factory=Td3Config)
     neat: NeatConfig = field(default_factory=NeatConfig)
+    keep: KeepConfig = field(default_factory=KeepConfig)
     env: EnvConfig = field(default_factory=EnvConfig)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
 

@@ -19,7 +19,7 @@ from typing import Any
 
 from evodevo.config import doc
 from evodevo.errors import ConfigError
-from evodevo.seed_split import TEST_SEED
+from evodevo.seed_split import TEST_SEED, VALIDATION_SEED, require_validation
 
 DISTANCE_AT = ("end", "grasp")
 """Values of ``evaluation.distance_at``: when the shaped training fitness reads the distance."""
@@ -29,8 +29,8 @@ PARAMETER_BLOCKS = ("theta", "delta", "alpha")
 """The vectors of a plain GRN genome that parameter mutation perturbs (SPEC §2.3, §2.4)."""
 GENOME_BLOCKS = WEIGHT_BLOCKS + PARAMETER_BLOCKS
 """Every block that ``mutation.block_sigma`` and ``mutation.block_p`` may name."""
-KEEP = ("last", "record")
-"""Values of ``evolution.keep``: which genome an evolution returns."""
+KEEP = ("last", "record", "validated")
+"""Values of ``evolution.keep``: which genome an evolution returns (:mod:`evodevo.return_rule`)."""
 OPTIMIZERS = ("ga", "cmaes")
 """Values of ``evolution.optimizer``: the thesis' genetic algorithm, or CMA-ES."""
 DISTANCE_TO = ("nearest", "target")
@@ -267,7 +267,12 @@ class EvolutionConfig:
         "the generations it is evaluated in — elites are re-evaluated on fresh episodes each "
         "generation, identical genomes share one record — and after each generation the "
         "champion is replaced by any evaluated genome whose record has a higher 95 % Wilson "
-        "lower bound than the champion's; no extra episodes, selection unchanged)",
+        "lower bound than the champion's; no extra episodes, selection unchanged) or "
+        "validated (every generation's best by training fitness is a candidate, scored on the "
+        "same evaluation.validation_episodes clean training-object episodes from "
+        "evaluation.validation_seed; the run returns the one with the most successes, the "
+        "later on a tie; those episodes are counted apart from the training budget and "
+        "selection is unchanged; evodevo.return_rule)",
     )
 
     @property
@@ -295,10 +300,10 @@ class EvolutionConfig:
                 f"evolution.optimizer=cmaes needs population >= 4 (its lambda: mu = lambda / 2 "
                 f"parents; cma's mirrored sampling fails with lambda = 2), got {self.population}"
             )
-        if self.keep == "record" and self.final_pick_episodes > 0:
+        if self.keep != "last" and self.final_pick_episodes > 0:
             raise ConfigError(
-                "evolution.keep=record and final_pick_episodes > 0 both choose the returned "
-                "genome; set final_pick_episodes: 0 or keep: last"
+                f"evolution.keep={self.keep} and final_pick_episodes > 0 both choose the "
+                "returned genome; set final_pick_episodes: 0 or keep: last"
             )
         if self.final_pick_episodes > 0 and self.elites < 2:
             raise ConfigError(
@@ -349,9 +354,22 @@ class EvaluationConfig:
         "the robot's own estimate, no simulator pose; an episode without a target counts 20 cm)",
     )
 
+    validation_episodes: int = doc(
+        20,
+        "evolution.keep / keep.rule validated: clean training-object episodes each candidate "
+        "is scored on (the same for every candidate and learner; not training budget)",
+    )
+    validation_seed: int = doc(
+        VALIDATION_SEED,
+        "first seed of those episodes (episode i resets with derive(seed, i)); must lie in the "
+        "validation range 10000..999999 (SPEC §6)",
+    )
+
     def validate(self) -> None:
         _check_range("episodes", self.episodes, 1)
         _check_range("noisy_fraction", self.noisy_fraction, 0.0, 1.0)
+        _check_range("validation_episodes", self.validation_episodes, 1)
+        require_validation(self.validation_seed, 1, "evaluation.validation_seed")
         _check_range("visual_noise", self.visual_noise, 0.0)
         _check_range("test_episodes", self.test_episodes, 1)
         _check_range("lockstep", self.lockstep, 1)

@@ -15,7 +15,9 @@ The loop knows nothing of GRNs: the controller kind, the optimiser and the
 feed-forward arms and later kinds reuse it. :func:`evolve_run` wires it to a run directory:
 ``encoder.pt``, ``config.json``, ``history.csv``, ``best_genome.npz``, ``summary.json`` and an
 atomic checkpoint after every generation (population, optimiser state as arrays and JSON,
-history) so ``resume`` continues exactly where an interrupted run stopped.
+history) so ``resume`` continues exactly where an interrupted run stopped. Which genome the run
+returns is ``evolution.keep`` (:mod:`evodevo.return_rule`): ``validated`` adds
+``validation.csv`` and ``checkpoints/validation.safetensors``.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.optimizers import make_optimizer
 from evodevo.grn.selection import rank
+from evodevo.return_rule import STATE_FILE, VALIDATED, ValidatedBest
 from evodevo.runs import RunDir, machine_info, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
@@ -117,6 +120,9 @@ class ProgressPrinter(Hook):
     def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
         r = record
         retest = "" if np.isnan(r.retest_success) else f" retest {r.retest_success:.2f}"
+        if evo.validated is not None and evo.validated.rows:
+            v = evo.validated.rows[-1]
+            retest += f" validation {v['successes']}/{v['episodes']} (kept gen {v['kept_at'] + 1})"
         print(
             f"gen {r.generation + 1:>3}/{evo.config.evolution.generations} "
             f"best F {r.best_fitness:6.2f} mean F {r.mean_fitness:6.2f} "
@@ -180,6 +186,12 @@ class Evolution:
         """``evolution.keep: record``: the genome whose record has the highest Wilson lower
         bound so far (see :meth:`update_records`)."""
         self.champion_key: str | None = None
+        self.validated: ValidatedBest | None = None
+        """``evolution.keep: validated``: each generation's best scored on the validation
+        episodes, the one with the most successes kept (:mod:`evodevo.return_rule`)."""
+        if config.evolution.keep == VALIDATED:
+            ev = config.evaluation
+            self.validated = ValidatedBest(ev.validation_seed, ev.validation_episodes, "generation")
 
     @property
     def done(self) -> bool:
@@ -233,6 +245,8 @@ class Evolution:
             self.optimizer.tell(self.population, fit, order)
             self.population = self.optimizer.ask()
         eval_s = time.perf_counter() - t0
+        if self.validated is not None:  # after the clock: validation is not training time
+            self.validate(self.best_genome)
         self.elapsed_s += eval_s
         self.episodes_run += n_eps
         self.env_steps += steps
@@ -258,6 +272,20 @@ class Evolution:
         for hook in self.hooks:
             hook.on_generation(self, record)
         return record
+
+    def validate(self, genome: Any) -> bool:
+        """``evolution.keep: validated``: score this generation's best on the validation
+        episodes (not training: its episodes and time are counted apart); keep it if it has
+        the most successes so far (the later generation on a tie)."""
+        if self.validated is None:
+            raise ConfigError("validate() needs evolution.keep: validated")
+        arrays = genome.arrays() if hasattr(genome, "arrays") else {}
+        if not arrays:
+            raise ConfigError(
+                f"evolution.keep=validated saves the kept genome as arrays; "
+                f"{type(genome).__name__} has none. Use evolution.keep: last"
+            )
+        return self.validated.check(self.evaluator, genome, self.generation, {"arrays": arrays})
 
     def update_records(self, success: np.ndarray, order: np.ndarray) -> None:
         """Add this generation's outcomes to the records; replace the champion if beaten.
@@ -351,6 +379,10 @@ class Evolution:
         """
         if self.config.evolution.keep == "record" and self.champion is not None:
             self.best_genome = self.champion
+        if self.validated is not None and self.validated.best_state is not None:
+            self.best_genome = self.controller.genome_from_arrays(
+                self.validated.best_state["arrays"]
+            )
         if (
             self.config.evolution.final_pick_episodes > 0
             and not self.stopped_early
@@ -363,7 +395,12 @@ class Evolution:
 
     # -- checkpoints -------------------------------------------------------------------------
     def save_checkpoint(self, path: str | Path) -> None:
-        """Atomically save everything needed to continue exactly (no live handles)."""
+        """Atomically save everything needed to continue exactly (no live handles).
+
+        With ``evolution.keep: validated`` the validation state is written first, beside
+        ``path`` (a resume drops the candidates this checkpoint does not cover)."""
+        if self.validated is not None:
+            self.validated.save(Path(path).with_name(STATE_FILE))
         arrays: dict[str, np.ndarray] = {}
         for i, g in enumerate(self.population):
             for name, a in g.arrays().items():
@@ -397,6 +434,8 @@ class Evolution:
             "champion_key": self.champion_key,
         }
         save_arrays(path, "grn_checkpoint", arrays, json.loads(json.dumps(meta, default=float)))
+        if self.validated is not None:  # the checkpoint covers every candidate now
+            self.validated.prune()
 
     def load_checkpoint(self, path: str | Path) -> None:
         """Restore a checkpoint written by :meth:`save_checkpoint` of the same config."""
@@ -440,6 +479,15 @@ class Evolution:
         self.records = {str(k): [int(v[0]), int(v[1])] for k, v in meta.get("records", {}).items()}
         self.champion_key = meta.get("champion_key")
         self.champion = genome("champion")
+        if self.validated is not None:
+            ev = self.config.evaluation
+            self.validated = ValidatedBest.load(
+                Path(path).with_name(STATE_FILE),
+                ev.validation_seed,
+                ev.validation_episodes,
+                "generation",
+                upto=self.generation - 1,
+            )
 
 
 def _record_key(genome: Any) -> str:
@@ -484,6 +532,8 @@ class Checkpointer(Hook):
     def write_outputs(self, evo: Evolution) -> None:
         rows = [asdict(r) for r in evo.history]
         self.run.write_csv("history.csv", rows, list(GenerationRecord.__dataclass_fields__))
+        if evo.validated is not None:
+            evo.validated.write_csv(self.run)
         if evo.best_genome is not None:
             evo.best_genome.save(self.run / "best_genome.npz", to_dict(evo.config))
         self.run.write_summary(summarise_evolution(evo))
@@ -513,6 +563,12 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
         "reevaluated_generations": evo.reevaluated,
         "final_pick": evo.final_pick,
         "kept": evo.config.evolution.keep,
+        "return_rule": (
+            evo.validated.summary()
+            if evo.validated is not None
+            else {"rule": evo.config.evolution.keep}
+        ),
+        "validation_episodes": 0 if evo.validated is None else evo.validated.episodes_run,
         "champion": evo.champion_record(),
         "best_fitness": h[-1].best_fitness if h else None,
         "best_training_success": h[-1].best_success if h else None,
