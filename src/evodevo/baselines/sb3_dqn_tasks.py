@@ -78,7 +78,7 @@ from evodevo.baselines.sb3_files import MODEL_SUFFIX, load_sb3_policy, save_sb3
 from evodevo.config import to_dict
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
-from evodevo.neuromod.evaluation import eval_seeds, retention
+from evodevo.neuromod.evaluation import eval_seeds, greedy_returns, task_record
 from evodevo.neuromod.keep_best import BestColumn
 from evodevo.neuromod.resume import check_resume
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
@@ -290,22 +290,7 @@ def build_dqn(cfg: BiarmConfig, env: Any, seed: int) -> DQN:
 def evaluate_model(model: Any, spec: TaskSpec, seeds: list[int]) -> list[float]:
     """Undiscounted returns of greedy episodes of ``model`` (a DQN or its saved policy), one
     per evaluation seed."""
-    env = make_env(spec.env_id, spec.max_steps)
-    returns = []
-    try:
-        for s in seeds:
-            obs, _ = env.reset(seed=int(s))
-            total = 0.0
-            while True:
-                action, _ = model.predict(obs, deterministic=True)
-                obs, r, term, trunc, _ = env.step(int(action))
-                total += float(r)
-                if term or trunc:
-                    break
-            returns.append(total)
-    finally:
-        env.close()
-    return returns
+    return greedy_returns(spec, seeds, lambda obs: int(model.predict(obs, deterministic=True)[0]))
 
 
 def _train_one(
@@ -428,18 +413,7 @@ def train_sb3_tasks(
                 stop.check(f"task {i} ({spec.env_id})", hint)
     tasks = []
     for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
-        final = evaluate_model(_load_model(run, i), spec, seeds)
-        ini_mean = float(np.mean(res["eval_returns_initial"]))
-        fin_mean = float(np.mean(final))
-        tasks.append(
-            {
-                **res,
-                "initial_return": ini_mean,
-                "final_return": fin_mean,
-                "retention": retention(ini_mean, fin_mean),
-                "eval_returns_final": final,
-            }
-        )
+        tasks.append(task_record(res, evaluate_model(_load_model(run, i), spec, seeds)))
     summary = {
         "variant": variant.name,
         "seed": seed,

@@ -15,6 +15,8 @@ evaluation (they are read as they are at that moment).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import torch
@@ -22,7 +24,14 @@ import torch
 from evodevo.neuromod.agent import BiarmAgent
 from evodevo.neuromod.tasks import TaskSpec, make_env
 
-__all__ = ["evaluate_column", "retention", "improvement", "eval_seeds"]
+__all__ = [
+    "evaluate_column",
+    "greedy_returns",
+    "task_record",
+    "retention",
+    "improvement",
+    "eval_seeds",
+]
 
 
 def eval_seeds(first: int, episodes: int) -> list[int]:
@@ -30,21 +39,19 @@ def eval_seeds(first: int, episodes: int) -> list[int]:
     return [first + j for j in range(episodes)]
 
 
-def evaluate_column(agent: BiarmAgent, col: int, task: TaskSpec, seeds: list[int]) -> list[float]:
-    """Undiscounted returns of greedy episodes of column ``col``, one per seed."""
+def greedy_returns(
+    task: TaskSpec, seeds: Sequence[int], act: Callable[[np.ndarray], int]
+) -> list[float]:
+    """Undiscounted returns of episodes of ``task`` in which ``act(observation)`` picks every
+    action, one episode per reset seed (the rollout of every evaluation, SPEC §1.7)."""
     env = make_env(task.env_id, task.max_steps)
-    x = torch.zeros(1, agent.obs_dim)
-    row = x.numpy()[0]
-    n = task.obs_dim
     returns = []
     try:
         for s in seeds:
             obs, _ = env.reset(seed=int(s))
             total = 0.0
             while True:
-                row[:n] = np.asarray(obs, dtype=np.float32).reshape(-1)
-                a = int(agent.greedy_q(x, col).argmax())
-                obs, r, term, trunc, _ = env.step(a)
+                obs, r, term, trunc, _ = env.step(act(obs))
                 total += float(r)
                 if term or trunc:
                     break
@@ -52,6 +59,33 @@ def evaluate_column(agent: BiarmAgent, col: int, task: TaskSpec, seeds: list[int
     finally:
         env.close()
     return returns
+
+
+def evaluate_column(agent: BiarmAgent, col: int, task: TaskSpec, seeds: list[int]) -> list[float]:
+    """Undiscounted returns of greedy episodes of column ``col``, one per seed."""
+    x = torch.zeros(1, agent.obs_dim)
+    row = x.numpy()[0]
+    n = task.obs_dim
+
+    def act(obs: np.ndarray) -> int:
+        row[:n] = np.asarray(obs, dtype=np.float32).reshape(-1)
+        return int(agent.greedy_q(x, col).argmax())
+
+    return greedy_returns(task, seeds, act)
+
+
+def task_record(result: Mapping[str, Any], final: list[float]) -> dict[str, Any]:
+    """A task's entry of ``summary.json``: its saved results with the mean initial and final
+    greedy return, the retention of Table 3.5 and the final returns."""
+    ini_mean = float(np.mean(result["eval_returns_initial"]))
+    fin_mean = float(np.mean(final))
+    return {
+        **result,
+        "initial_return": ini_mean,
+        "final_return": fin_mean,
+        "retention": retention(ini_mean, fin_mean),
+        "eval_returns_final": final,
+    }
 
 
 def retention(initial: float, final: float) -> float:

@@ -40,7 +40,7 @@ from evodevo.neuromod.checkpoint import (
     save_partial_checkpoint,
 )
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
-from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, retention
+from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, task_record
 from evodevo.neuromod.forgetting import record_returns_after
 from evodevo.neuromod.keep_best import VALIDATION_FIELDS, BestColumn
 from evodevo.neuromod.replay import ReplayBuffer
@@ -497,18 +497,7 @@ def train(
     agent.end_training()
     tasks = []
     for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
-        final = evaluate_column(agent, i, spec, seeds)
-        ini_mean = float(np.mean(res["eval_returns_initial"]))
-        fin_mean = float(np.mean(final))
-        tasks.append(
-            {
-                **res,
-                "initial_return": ini_mean,
-                "final_return": fin_mean,
-                "retention": retention(ini_mean, fin_mean),
-                "eval_returns_final": final,
-            }
-        )
+        tasks.append(task_record(res, evaluate_column(agent, i, spec, seeds)))
     summary = {
         "variant": var.name,
         "seed": seed,
