@@ -17,8 +17,7 @@ from evodevo.neuromod.compare import collect
 from evodevo.neuromod.table_format import format_seeds
 from evodevo.reproduce.biarm_protocols import grids
 from evodevo.reproduce.budget import ReproduceConfig, preset
-from evodevo.reproduce.pipeline import finished, kuka_run_dir
-from evodevo.reproduce.run_files import load_json
+from evodevo.reproduce.run_files import finished, kuka_run_dir, load_json
 from evodevo.seed_split import range_label
 from evodevo.seeding import parse_seeds
 from evodevo.stats import rate

@@ -7,7 +7,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from evodevo.reproduce.budget import ReproduceConfig
-from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
+from evodevo.reproduce.run_files import (
+    TRIVIAL_TITLES,
+    finished,
+    fmt_pair,
+    kuka_run_dir,
+    load_json,
+    paired,
+    pct,
+    successes,
+)
 from evodevo.runs import RunDir
 from evodevo.seeding import parse_seeds
 from evodevo.stats import rate
@@ -19,7 +28,6 @@ def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     """Thesis Table 4.2 per budget scale: every tested GRN run beside every tested baseline."""
     from evodevo.baselines.table_4_2 import markdown, read_run, write_table
     from evodevo.errors import EvodevoError
-    from evodevo.reproduce.pipeline import finished, kuka_run_dir
 
     k, g = cfg.kuka, cfg.grn
     grn_dirs = sorted(p for p in (out / "grn").glob("*_s*") if p.is_dir())

@@ -21,6 +21,8 @@ from evodevo.config import load_config, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.progress import StepBar
 from evodevo.reproduce.budget import PRESETS, ReproduceConfig
+from evodevo.reproduce.report import write_report
+from evodevo.reproduce.run_files import finished, kuka_run_dir
 from evodevo.runs import RunDir, atomic_write_text
 from evodevo.seeding import parse_seeds
 
@@ -43,29 +45,6 @@ class Step:
 
     def done(self) -> bool:
         return all(p.exists() and finished(p) for p in self.outputs)
-
-
-def finished(path: Path) -> bool:
-    """False for a ``summary.json`` that records ``"done": false`` (or, as NEAT runs before
-    the flag was added, ``"stopped_by": "running"``), and for any output beside a
-    ``grid.json`` (``biarm compare``'s list of requested runs) while one of those runs has no
-    ``summary.json``: tables drawn from a partial grid by ``biarm report`` do not finish it."""
-    grid = path.parent / "grid.json"
-    if path.name != "summary.json" and grid.is_file():
-        try:
-            runs = json.loads(grid.read_text()).get("runs", [])
-        except (OSError, ValueError, AttributeError):
-            return False
-        return all((path.parent / "runs" / str(n) / "summary.json").is_file() for n in runs)
-    if path.name != "summary.json":
-        return True
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return False  # unreadable or half-written: run the step again (it resumes)
-    if not isinstance(data, dict):
-        return True
-    return data.get("done") is not False and data.get("stopped_by") != "running"
 
 
 def _grn_runs(cfg: ReproduceConfig, out: Path) -> list[tuple[str, str, int, list[str]]]:
@@ -261,11 +240,6 @@ def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
     return steps
 
 
-def kuka_run_dir(out: Path, method: str, scale: float, seed: int) -> Path:
-    """``OUT/kuka/{method}_x{scale}_s{seed}``."""
-    return out / "kuka" / f"{method}_x{scale:g}_s{seed}"
-
-
 def _kuka_steps(cfg: ReproduceConfig, out: Path) -> list[Step]:
     """Train and test every Kuka baseline at the GRN's env-step budget times each scale."""
     k, g = cfg.kuka, cfg.grn
@@ -415,7 +389,6 @@ def run_reproduce(
     each (selected) step with its status and return without running anything. Unless ``quiet``,
     a bar on stderr counts the steps (elapsed time, ETA) and names the running one.
     """
-    from evodevo.reproduce.report import write_report
 
     if budget not in PRESETS:
         raise EvodevoError(

@@ -10,7 +10,16 @@ from typing import Any
 
 from evodevo.stats import mcnemar_exact
 
-__all__ = ["TRIVIAL_TITLES", "fmt_pair", "load_json", "paired", "pct", "successes"]
+__all__ = [
+    "TRIVIAL_TITLES",
+    "finished",
+    "fmt_pair",
+    "kuka_run_dir",
+    "load_json",
+    "paired",
+    "pct",
+    "successes",
+]
 
 
 def load_json(path: Path) -> dict[str, Any] | None:
@@ -57,3 +66,31 @@ def paired(a: list[int] | None, b: list[int] | None) -> tuple[float, float] | No
 def fmt_pair(pair: tuple[float, float] | None) -> str:
     """``+d.d (p = x)`` in points, else ``—``."""
     return "—" if pair is None else f"{100 * pair[0]:+.1f} (p = {pair[1]:.2g})"
+
+
+def finished(path: Path) -> bool:
+    """False for a ``summary.json`` that records ``"done": false`` (or, as NEAT runs before
+    the flag was added, ``"stopped_by": "running"``), and for any output beside a
+    ``grid.json`` (``biarm compare``'s list of requested runs) while one of those runs has no
+    ``summary.json``: tables drawn from a partial grid by ``biarm report`` do not finish it."""
+    grid = path.parent / "grid.json"
+    if path.name != "summary.json" and grid.is_file():
+        try:
+            runs = json.loads(grid.read_text()).get("runs", [])
+        except (OSError, ValueError, AttributeError):
+            return False
+        return all((path.parent / "runs" / str(n) / "summary.json").is_file() for n in runs)
+    if path.name != "summary.json":
+        return True
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False  # unreadable or half-written: run the step again (it resumes)
+    if not isinstance(data, dict):
+        return True
+    return data.get("done") is not False and data.get("stopped_by") != "running"
+
+
+def kuka_run_dir(out: Path, method: str, scale: float, seed: int) -> Path:
+    """``OUT/kuka/{method}_x{scale}_s{seed}``."""
+    return out / "kuka" / f"{method}_x{scale:g}_s{seed}"
