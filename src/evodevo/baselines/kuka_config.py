@@ -2,7 +2,8 @@
 
 One :class:`KukaBaselineConfig` per run, saved resolved in the run's ``config.json`` (kind
 ``"baseline"``). Sections: ``budget`` (what every method gets: env steps and/or wall minutes),
-``ppo`` and ``td3`` (Stable-Baselines3 settings, Table 4.1 defaults), ``neat`` (neat-python
+``ppo`` and ``td3`` (Stable-Baselines3 settings, Table 4.1 defaults), ``recurrent_ppo`` (the
+LSTM of sb3-contrib's RecurrentPPO, the memory task's recurrent baseline), ``neat`` (neat-python
 settings, Table 4.1 defaults), ``keep`` (which model the run returns, :mod:`evodevo.return_rule`),
 ``env`` and ``evaluation`` (the same sections, and so the same test and validation seeds, as a
 GRN run's :class:`~evodevo.grn.config.GrnConfig`).
@@ -27,15 +28,16 @@ __all__ = [
     "CnnConfig",
     "PpoConfig",
     "Td3Config",
+    "RecurrentPpoConfig",
     "NeatConfig",
     "KeepConfig",
     "KukaBaselineConfig",
 ]
 
-METHODS = ("ppo", "td3", "neat", "random", "zero")
+METHODS = ("ppo", "td3", "neat", "random", "zero", "recurrent_ppo")
 """The Kuka baselines of SPEC §4."""
 
-Method = Literal["ppo", "td3", "neat", "random", "zero"]
+Method = Literal["ppo", "td3", "neat", "random", "zero", "recurrent_ppo"]
 
 
 def _positive(key: str, value: float | None) -> None:
@@ -151,6 +153,24 @@ class Td3Config:
 
 
 @dataclass
+class RecurrentPpoConfig:
+    """RecurrentPPO of sb3-contrib (``method: recurrent_ppo``; baselines/recurrent_ppo.py): PPO
+    with an LSTM in the actor and the critic, on the blob front-end's 4 features. Its PPO
+    settings (learning rate, gamma, n_steps, batch_size, net_arch, ...) are section ppo's."""
+
+    lstm_hidden_size: int = doc(64, "units of each LSTM (as many as the PPO heads' hidden layer)")
+    n_lstm_layers: int = doc(1, "stacked LSTM layers")
+    shared_lstm: bool = doc(
+        False,
+        "one LSTM shared by actor and critic (false: each has its own, sb3-contrib's default)",
+    )
+
+    def validate(self) -> None:
+        _positive("lstm_hidden_size", self.lstm_hidden_size)
+        _positive("n_lstm_layers", self.n_lstm_layers)
+
+
+@dataclass
 class NeatConfig:
     """NEAT of neat-python on the 128 encoder features (Table 4.1 values)."""
 
@@ -230,11 +250,12 @@ class KeepConfig:
 class KukaBaselineConfig:
     """Everything a Kuka baseline run needs (SPEC §4). Saved in ``config.json`` of the run."""
 
-    method: Method = doc("ppo", "ppo | td3 | neat | random | zero")
+    method: Method = doc("ppo", "ppo | td3 | neat | random | zero | recurrent_ppo")
     seed: int = doc(0, "run seed (SB3 seed=, NEAT population seed, encoder, episode seeds)")
     budget: BudgetConfig = field(default_factory=BudgetConfig)
     ppo: PpoConfig = field(default_factory=PpoConfig)
     td3: Td3Config = field(default_factory=Td3Config)
+    recurrent_ppo: RecurrentPpoConfig = field(default_factory=RecurrentPpoConfig)
     neat: NeatConfig = field(default_factory=NeatConfig)
     keep: KeepConfig = field(default_factory=KeepConfig)
     env: EnvConfig = field(default_factory=EnvConfig)
@@ -249,11 +270,14 @@ class KukaBaselineConfig:
 
         Same ``env`` and ``evaluation`` sections (so the same test seeds as a GRN run); the
         controller is the baseline's policy (:data:`CONTROLLERS`); NEAT's front-end is
-        ``neat.encoder``, PPO's ``ppo.encoder`` (``sensors.encoder`` "blob" when it is).
+        ``neat.encoder``, PPO's ``ppo.encoder`` (``sensors.encoder`` "blob" when it is),
+        RecurrentPPO's always "blob".
         """
         from evodevo.grn.frontends import frontend_dim
 
-        encoder = {"neat": self.neat.encoder, "ppo": self.ppo.encoder}.get(self.method, "cnn")
+        encoder = {"neat": self.neat.encoder, "ppo": self.ppo.encoder, "recurrent_ppo": "blob"}.get(
+            self.method, "cnn"
+        )
         encoder = "cnn" if encoder == "image" else encoder  # SB3's own CNN: no GRN front-end
         return GrnConfig(
             seed=self.seed,
@@ -270,6 +294,7 @@ CONTROLLERS = {
     "neat": "evodevo.baselines.policies:NeatPolicy",
     "zero": "evodevo.grn.controller:ZeroPolicy",
     "random": "evodevo.grn.controller:RandomPolicy",
+    "recurrent_ppo": "evodevo.baselines.recurrent_ppo:RecurrentPpoPolicy",
 }
 """Controller (evaluator policy) of each method, as ``"module:attr"``."""
 

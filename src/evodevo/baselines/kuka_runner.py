@@ -98,7 +98,7 @@ def run_baseline(
                 "another --out"
             )
         run.write_config(cfg_dict, kind=RUN_KIND)
-    if cfg.method in ("ppo", "td3"):
+    if cfg.method in ("ppo", "td3", "recurrent_ppo"):  # RecurrentPPO: sb3-contrib
         from evodevo.baselines.sb3_kuka import train_sb3
 
         return train_sb3(cfg, run, resume=resume, quiet=quiet, hooks=TrainingHooks(hooks))
@@ -144,7 +144,7 @@ def load_run(run: RunDir, saved: dict[str, Any]) -> Any:
     cfg = read_baseline_config(run)
     genome: Any = None
     encoder = None
-    if cfg.method in ("ppo", "td3"):
+    if cfg.method in ("ppo", "td3", "recurrent_ppo"):
         from evodevo.baselines.sb3_kuka import MODEL_FILE
 
         ref = Sb3Model(cfg.method, str((run / MODEL_FILE).resolve()))

@@ -1,6 +1,7 @@
 """PPO and TD3 of Stable-Baselines3 on the Kuka image (SPEC §4, thesis Table 4.1).
 
-Nothing here is an RL algorithm: SB3's PPO and TD3 learn, SB3's callbacks add the rest.
+Nothing here is an RL algorithm: SB3's PPO and TD3 learn, SB3's callbacks add the rest. The
+same loop trains sb3-contrib's RecurrentPPO (:mod:`evodevo.baselines.recurrent_ppo`).
 
 * :class:`~evodevo.baselines.kuka_cnn.KukaCnn` — the Table 4.1 image encoder (Conv
   3→16→32(→32), a linear layer), trained with the policy (SB3 scales the uint8 image to [0, 1]
@@ -40,6 +41,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
 from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_cnn import KukaCnn
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
+from evodevo.baselines.recurrent_ppo import build_recurrent_ppo
 from evodevo.baselines.sb3_files import (
     MODEL_SUFFIX,
     SafeCheckpointCallback,
@@ -252,8 +254,9 @@ def _vec_env(cfg: KukaBaselineConfig) -> VecTransposeImage | DummyVecEnv:
 
 
 def uses_blob(cfg: KukaBaselineConfig) -> bool:
-    """Whether this SB3 run reads the blob front-end's features (``ppo.encoder: blob``)."""
-    return cfg.method == "ppo" and cfg.ppo.encoder == "blob"
+    """Whether this SB3 run reads the blob front-end's features (``ppo.encoder: blob``;
+    RecurrentPPO always)."""
+    return cfg.method == "recurrent_ppo" or (cfg.method == "ppo" and cfg.ppo.encoder == "blob")
 
 
 def _policy_kwargs(cnn: CnnConfig, net_arch: list[int]) -> dict[str, Any]:
@@ -313,7 +316,11 @@ def build_model(cfg: KukaBaselineConfig, env: Any) -> Any:
             device="cpu",
             verbose=0,
         )
-    raise EvodevoError(f"method {cfg.method!r} is not an SB3 baseline; use ppo or td3")
+    if cfg.method == "recurrent_ppo":
+        return build_recurrent_ppo(cfg, env)
+    raise EvodevoError(
+        f"method {cfg.method!r} is not an SB3 baseline; use ppo, td3 or recurrent_ppo"
+    )
 
 
 def _resume_state(

@@ -44,7 +44,9 @@ def _budget_from(path: Path, scale: float) -> int:
 
 @app.command()
 def kuka(
-    method: str = typer.Option(..., "--method", help="ppo | td3 | neat | random | zero."),
+    method: str = typer.Option(
+        ..., "--method", help="ppo | td3 | neat | random | zero | recurrent_ppo (sb3-contrib)."
+    ),
     out: Path = typer.Option(..., "--out", help="Run directory (created)."),
     budget_steps: int | None = typer.Option(
         None, "--budget-steps", help="Training env steps [PPO/TD3 13500; NEAT 15 generations]."
@@ -151,7 +153,7 @@ def _train(
     else:
         total = cfg.neat.generations if by_generation else b.default_env_steps
     unit = "generations" if by_generation else "env steps"
-    trained = cfg.method in ("ppo", "td3", "neat")
+    trained = cfg.method in ("ppo", "td3", "neat", "recurrent_ppo")
     hooks: list[Any] = []
     tb = None
     if tensorboard is not None:
