@@ -27,6 +27,7 @@ __all__ = [
     "GenerationBar",
     "TrainingBar",
     "StepBar",
+    "TaskBars",
     "generation_line",
     "plain_line",
 ]
@@ -251,6 +252,54 @@ class TrainingBar(_Bar):
     def on_generation(self, row: dict[str, Any]) -> None:
         if self.by_generation:
             self.update(int(row["generation"]) + 1)
+
+
+class TaskBars:
+    """The BIARM trainer's progress: one bar per task over its episodes, with the last
+    episode's return, epsilon and learning rate (``on_task`` and ``hook`` of
+    :func:`evodevo.neuromod.trainer.train`); nothing when quiet. A context manager.
+
+    >>> with TaskBars(quiet=True) as bars:
+    ...     bars.on_task(0, type("Spec", (), {"env_id": "CartPole-v1", "episodes": 3})())
+    >>> bars.progress is None
+    True
+    """
+
+    def __init__(self, quiet: bool = False) -> None:
+        self.quiet = quiet
+        self.progress: Any = None
+        self._bars: dict[int, Any] = {}
+
+    def __enter__(self) -> TaskBars:
+        if not self.quiet:
+            from rich.console import Console
+            from rich.progress import Progress, TextColumn
+
+            columns = [*_columns(), TextColumn("{task.fields[info]}")]
+            self.progress = Progress(*columns, console=Console(file=sys.stderr))
+            self.progress.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+            self.progress = None
+
+    def on_task(self, index: int, spec: Any) -> None:
+        """Task ``index`` (a :class:`~evodevo.neuromod.tasks.TaskSpec`) starts."""
+        if self.progress is not None:
+            self._bars[index] = self.progress.add_task(
+                f"[{index + 1}] {spec.env_id}", total=spec.episodes, info=""
+            )
+
+    def on_episode(self, task: int, episode: int, ret: float, epsilon: float, lr: float) -> None:
+        """Episode ``episode`` of task ``task`` finished with return ``ret``."""
+        if self.progress is not None and task in self._bars:
+            self.progress.update(
+                self._bars[task],
+                completed=episode + 1,
+                info=f"return {ret:8.1f}  eps {epsilon:.3f}  lr {lr:.2e}",
+            )
 
 
 class StepBar(_Bar):

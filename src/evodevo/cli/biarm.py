@@ -187,44 +187,18 @@ def _train_with_bars(
 ) -> dict[str, Any]:
     from evodevo.neuromod.trainer import EpisodeInfo
     from evodevo.neuromod.trainer import train as run_train
+    from evodevo.progress import TaskBars
 
-    if quiet:
-        return run_train(cfg, var, seed, out, resume=resume, hook=tb, stop=stop)
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TextColumn("ETA"),
-        TimeRemainingColumn(),
-        TextColumn("{task.fields[info]}"),
-        console=Console(stderr=True),
-    ) as progress:
-        bars: dict[int, Any] = {}
-
-        def on_task(i: int, spec: Any) -> None:
-            bars[i] = progress.add_task(f"[{i + 1}] {spec.env_id}", total=spec.episodes, info="")
+    with TaskBars(quiet) as bars:
 
         def hook(e: EpisodeInfo) -> None:
-            progress.update(
-                bars[e.task],
-                completed=e.episode + 1,
-                info=f"return {e.ret:8.1f}  eps {e.epsilon:.3f}  lr {e.lr:.2e}",
-            )
+            bars.on_episode(e.task, e.episode, e.ret, e.epsilon, e.lr)
             if tb is not None:
                 tb(e)
 
-        return run_train(cfg, var, seed, out, resume=resume, hook=hook, on_task=on_task, stop=stop)
+        return run_train(
+            cfg, var, seed, out, resume=resume, hook=hook, on_task=bars.on_task, stop=stop
+        )
 
 
 @app.command()
