@@ -234,3 +234,25 @@ def test_grn_evolve_in_the_dark_through_the_cli(tmp_path):
     saved = json.loads((out / "config.json").read_text())["config"]
     assert saved["env"]["kwargs"] == {"max_steps": 8, "dark_after": 2}
     assert saved["dynamics"]["restart"] is False and saved["sensors"]["encoder"] == "blob"
+
+
+def test_lateral_dv_slows_the_sideways_moves_only():
+    """The arm's target moves by lateral_dv per unit of dx, dy; the descent and the turn keep
+    the benchmark's 0.06 m and 0.25 rad, so an episode lasts as long."""
+    moves = {}
+    for lateral in (None, 0.02):
+        env = _kuka(lateral_dv=lateral)
+        try:
+            env.reset(seed=10_000)
+            arm = env._arm  # the commanded end-effector target (not the lagging pose)
+            before = np.array([*arm.end_effector_target, arm.end_effector_angle])
+            env.step(np.array([0.5, -0.5, 1.0], np.float32))
+            moves[lateral] = np.array([*arm.end_effector_target, arm.end_effector_angle]) - before
+        finally:
+            env.close()
+    np.testing.assert_allclose(moves[None][:3], [0.03, -0.03, -0.06], atol=1e-6)
+    np.testing.assert_allclose(moves[0.02][:3], [0.01, -0.01, -0.06], atol=1e-6)
+    assert moves[None][3] == moves[0.02][3] != 0.0
+    for bad in (0, -0.01, "fast", True):
+        with pytest.raises(ConfigError, match=r"lateral_dv=.*positive number"):
+            _kuka(lateral_dv=bad)

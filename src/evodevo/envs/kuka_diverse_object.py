@@ -27,8 +27,9 @@ of ``pybullet`` 3.2.7, with these differences:
 * ``skip_empty_lift`` (default on): the automatic grasp's lift stops once nothing is held and
   the arm is clear above every object, when the rest of it cannot change the outcome
   (:mod:`evodevo.envs.kuka_grasp`; docs/kuka_env.md, "Skipped lift");
-* ``dark_after`` (default off): the camera goes dark after the first k observations, a task
-  that needs memory (docs/grn.md, "A task that needs memory").
+* ``dark_after`` (default off): the camera goes dark after the first k observations, and
+  ``lateral_dv`` (default off: 0.06 m) slows the sideways moves; with both, a task that needs
+  memory (docs/grn.md, "A task that needs memory").
 
 >>> import gymnasium as gym, evodevo.envs
 >>> env = gym.make("evodevo/KukaDiverseObject-v0")
@@ -203,6 +204,11 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             gripper's end pose (``evaluation.distance_weight`` > 0). ``grasps``,
             ``lifts_skipped`` and ``lift_steps_skipped`` count this instance's grasps, the lifts
             stopped early and the simulation steps saved.
+        lateral_dv: ``None`` (default): dx and dy move the end effector by ``dv`` = 0.06 m per
+            unit action, as in the original. A number: by that many metres instead, while the
+            descent (0.06 m per step under the height hack) and the turn (0.25 rad) keep theirs,
+            so an episode lasts as long but reaching a seen object takes more steps (with
+            ``dark_after``, a task that needs memory).
         dark_after: ``None`` (default): every observation is the camera image. An integer k:
             the first k observations of an episode (the reset's and those of the first k − 1
             steps) are the camera image, every later one is all zeros, so whatever the robot
@@ -235,6 +241,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         scene_cache_dir: str | None = None,
         scene_cache_entries: int = DEFAULT_MAX_ENTRIES,
         skip_empty_lift: bool = True,
+        lateral_dv: float | None = None,
         dark_after: int | None = None,
     ) -> None:
         _check_int("num_objects", num_objects, 1)
@@ -295,6 +302,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.rebuild_every = int(rebuild_every)
         self.skip_empty_lift = bool(skip_empty_lift)
         self.dark_after = None if dark_after is None else int(dark_after)
+        self.lateral_dv = DV if lateral_dv is None else _positive("lateral_dv", lateral_dv)
         self.grasps = 0
         self.lifts_skipped = 0
         self.lift_steps_skipped = 0
@@ -563,7 +571,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
                 )
             table = _DISCRETE_HEIGHT_HACK if self.height_hack else _DISCRETE_FREE
             ux, uy, uz, ua = table[int(action)]
-            return DV * ux, DV * uy, DV * uz, DA * ua
+            return self.lateral_dv * ux, self.lateral_dv * uy, DV * uz, DA * ua
         shape = self.action_space.shape
         try:
             a = np.asarray(action)
@@ -585,8 +593,8 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         # actions give the same numbers as there.
         a = np.clip(a, -1.0, 1.0)
         if self.height_hack:
-            return DV * a[0], DV * a[1], -DV, DA * a[2]
-        return DV * a[0], DV * a[1], DV * a[2], DA * a[3]
+            return self.lateral_dv * a[0], self.lateral_dv * a[1], -DV, DA * a[2]
+        return self.lateral_dv * a[0], self.lateral_dv * a[1], DV * a[2], DA * a[3]
 
     def _grasp(self) -> None:
         """Close the fingers for 500 steps, then lift for 500 (:func:`kuka_grasp.grasp`)."""
@@ -709,6 +717,18 @@ def _place(cid: int, uids: list[int], arm_uid: int, scene: SettledScene) -> None
 def _check_int(name: str, value: Any, low: int) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
         raise ConfigError(f"{name}={value!r} must be an integer >= {low}")
+
+
+def _positive(name: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(value, bool) or not 0.0 < v < math.inf:
+        raise ConfigError(
+            f"{name}={value!r} must be a positive number of metres per unit action, or null"
+        )
+    return v
 
 
 def _check_unit(name: str, value: Any) -> None:
