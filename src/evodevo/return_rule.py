@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,8 +63,11 @@ __all__ = [
     "validation_episodes",
     "candidate_every",
     "ValidatedBest",
+    "summary_fields",
     "rule_of",
     "describe_rule",
+    "validation_of",
+    "rules_sentence",
 ]
 
 VALIDATED = "validated"
@@ -73,7 +76,16 @@ RULES = ("last", "record", VALIDATED)
 STATE_FILE = "validation.safetensors"
 """The keeper's state, in the run's ``checkpoints/`` folder."""
 CSV_FILE = "validation.csv"
-CSV_FIELDS = ["candidate", "at", "successes", "episodes", "kept_at", "kept_successes"]
+CSV_FIELDS = [
+    "candidate",
+    "at",
+    "successes",
+    "episodes",
+    "env_steps",
+    "seconds",
+    "kept_at",
+    "kept_successes",
+]
 """Columns of ``validation.csv``: one row per candidate, the kept one after it."""
 _KIND = "validated_best"
 
@@ -129,8 +141,6 @@ class ValidatedBest:
         self.kept: list[tuple[int, dict[str, Any]]] = []
         """(row, state) of every candidate that was the best when it came and is not pruned:
         the last is the kept one; earlier ones let a resume drop later candidates."""
-        self.env_steps = 0
-        self.wall_s = 0.0
 
     # -- choosing ---------------------------------------------------------------------------
     @property
@@ -148,17 +158,35 @@ class ValidatedBest:
         """Validation episodes run so far (counted apart from the training budget)."""
         return self.n * len(self.rows)
 
-    def score(self, evaluator: Any, candidate: Any, config: Any | None = None) -> int:
-        """Successes of ``candidate`` on the validation episodes (its time and steps counted)."""
+    @property
+    def env_steps(self) -> int:
+        """Env steps of the validation episodes so far."""
+        return sum(int(r["env_steps"]) for r in self.rows)
+
+    @property
+    def wall_s(self) -> float:
+        """Seconds spent validating so far (not training time)."""
+        return sum(float(r["seconds"]) for r in self.rows)
+
+    def score(
+        self, evaluator: Any, candidate: Any, config: Any | None = None
+    ) -> tuple[int, int, float]:
+        """``candidate`` on the validation episodes: successes, env steps and seconds."""
         t0 = time.perf_counter()
         res = evaluator.evaluate([candidate], self.episodes, config=config)
-        self.env_steps += int(res.env_steps)
-        self.wall_s += time.perf_counter() - t0
-        return int(res.success.sum())
+        return int(res.success.sum()), int(res.env_steps), time.perf_counter() - t0
 
-    def offer(self, at: int, successes: int, state: Mapping[str, Any]) -> bool:
-        """Count candidate ``at`` with ``successes``; keep ``state`` if it has the most so far
-        (ties go to this later candidate). Returns whether it is kept."""
+    def offer(
+        self,
+        at: int,
+        successes: int,
+        state: Mapping[str, Any],
+        env_steps: int = 0,
+        seconds: float = 0.0,
+    ) -> bool:
+        """Count candidate ``at`` with ``successes`` (scored in ``env_steps`` and ``seconds``);
+        keep ``state`` if it has the most so far (ties go to this later candidate). Returns
+        whether it is kept."""
         best = self.best_row
         keep = best is None or successes >= int(best["successes"])
         if keep:
@@ -169,6 +197,8 @@ class ValidatedBest:
             "at": int(at),
             "successes": int(successes),
             "episodes": self.n,
+            "env_steps": int(env_steps),
+            "seconds": float(seconds),
             "kept_at": int(at) if keep else int(kept["at"]),  # type: ignore[index]
             "kept_successes": int(successes) if keep else int(kept["successes"]),  # type: ignore[index]
         }
@@ -184,7 +214,8 @@ class ValidatedBest:
         config: Any | None = None,
     ) -> bool:
         """:meth:`score` then :meth:`offer`: whether ``candidate`` is now the kept one."""
-        return self.offer(at, self.score(evaluator, candidate, config), state)
+        successes, env_steps, seconds = self.score(evaluator, candidate, config)
+        return self.offer(at, successes, state, env_steps, seconds)
 
     def prune(self, upto: int | None = None) -> list[dict[str, Any]]:
         """Forget superseded states no resume can need; returns them (e.g. files to delete).
@@ -218,8 +249,6 @@ class ValidatedBest:
                 "unit": self.unit,
                 "rows": self.rows,
                 "kept": [[row, state] for row, state in self.kept],
-                "env_steps": self.env_steps,
-                "wall_s": self.wall_s,
             },
         )
 
@@ -258,8 +287,6 @@ class ValidatedBest:
                 f"validation state {str(path)!r} no longer holds the kept candidate of its "
                 f"first {keep} candidates; delete it and start the run again"
             )
-        keeper.env_steps = int(data["env_steps"])
-        keeper.wall_s = float(data["wall_s"])
         return keeper
 
     def write_csv(self, run: RunDir) -> None:
@@ -282,6 +309,17 @@ class ValidatedBest:
             "kept_at": None if best is None else int(best["at"]),
             "kept_successes": None if best is None else int(best["successes"]),
         }
+
+
+def summary_fields(rule: str, keeper: ValidatedBest | None) -> dict[str, Any]:
+    """``return_rule`` and ``validation_episodes`` of a run's ``summary.json``.
+
+    >>> summary_fields("last", None)
+    {'return_rule': {'rule': 'last'}, 'validation_episodes': 0}
+    """
+    if keeper is None:
+        return {"return_rule": {"rule": rule}, "validation_episodes": 0}
+    return {"return_rule": keeper.summary(), "validation_episodes": keeper.episodes_run}
 
 
 # -- stating the rule in a table ------------------------------------------------------------
@@ -333,3 +371,45 @@ def describe_rule(saved: Mapping[str, Any], summary: Mapping[str, Any] | None = 
         of = f"best of {count} candidates" if count is not None else "best candidate"
         return f"validated ({of} on {v} validation episodes)"
     return rule
+
+
+def validation_of(saved: Mapping[str, Any]) -> tuple[int, int] | None:
+    """(episodes per candidate, first seed) of a ``validated`` run's config, else None."""
+    if rule_of(saved) != VALIDATED:
+        return None
+    ev = (saved.get("config") or {}).get("evaluation") or {}
+    return int(ev.get("validation_episodes", 20)), int(ev.get("validation_seed", 20_000))
+
+
+def rules_sentence(saved: Sequence[Mapping[str, Any]]) -> str:
+    """The caption's sentence on the return rules of a table's runs (SPEC §6).
+
+    >>> grn = {"kind": "grn", "config": {"evolution": {"keep": "validated"}}}
+    >>> ppo = {"kind": "baseline", "config": {"method": "ppo", "keep": {"rule": "validated"}}}
+    >>> print(rules_sentence([grn, ppo, {"kind": "baseline", "config": {"method": "zero"}}]))
+    Return rule: validated for every trained learner (validated: each generation's best, or for PPO/TD3 a snapshot every N env steps and the final model, scored on the same 20 clean training-object episodes with seeds derive(20000, i), validation range; the most successes kept, the later on a tie; validation episodes are not training budget).
+    """
+    rules = sorted({rule_of(s) for s in saved} - {"untrained"})
+    if not rules:
+        return "Return rule: none (untrained policies only)."
+    if len(rules) == 1:
+        text = f"Return rule: {rules[0]} for every trained learner"
+    else:
+        text = (
+            f"Return rules differ between learners ({', '.join(rules)}; SPEC §6 asks for one "
+            "per table): compare the learners with care"
+        )
+    val = sorted({v for s in saved if (v := validation_of(s)) is not None})
+    if val:
+        eps = "; ".join(
+            f"{n} clean training-object episodes with seeds derive({seed}, i), "
+            f"{range_label(seed)} range"
+            for n, seed in val
+        )
+        same = "the same " if len(val) == 1 else "DIFFERENT episodes across runs: "
+        text += (
+            " (validated: each generation's best, or for PPO/TD3 a snapshot every N env steps "
+            f"and the final model, scored on {same}{eps}; the most successes kept, the later on "
+            "a tie; validation episodes are not training budget)"
+        )
+    return text + "."

@@ -15,7 +15,9 @@ typed ``neat`` section, so unknown neat keys fail in neat-python and the run rec
 After every generation :class:`RunReporter` (a neat-python reporter) writes the population
 (``checkpoints/neat-checkpoint-{g}.json``), ``neat_state.json``, ``history.csv``,
 ``learning_curve.csv``, ``best_genome.json`` and ``summary.json``; ``resume`` restores the last
-generation both files agree on. Genomes and populations are JSON
+generation both files agree on. With ``keep.rule: validated`` each generation's best is also
+scored on the validation episodes and ``best_genome.json`` is the one with the most successes
+(:mod:`evodevo.return_rule`; ``validation.csv``, ``checkpoints/validation.safetensors``). Genomes and populations are JSON
 (:mod:`evodevo.baselines.neat_files`), not neat-python's pickles, so a run folder can be opened
 without running code from it. neat-python keeps its random state in Python's ``random`` module
 (it is seeded through its ``seed`` argument, like SB3's ``seed=``, and saved and restored with
@@ -41,6 +43,8 @@ from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.evolution import EPISODE_KEY, training_episodes
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import frontend_dim, load_frontend, make_frontend, save_frontend
+from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
+from evodevo.return_rule import VALIDATED, ValidatedBest, summary_fields
 from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
 from evodevo.safe_io import legacy_error
 
@@ -173,6 +177,7 @@ class RunReporter:
         quiet: bool,
         hooks: TrainingHook | None = None,
         population: Any = None,
+        keeper: ValidatedBest | None = None,
     ):
         self.run = run
         self.cfg = cfg
@@ -181,6 +186,8 @@ class RunReporter:
         self.hooks = hooks if hooks is not None else TrainingHook()
         self.population = population
         """The ``neat.Population`` whose state every checkpoint saves."""
+        self.keeper = keeper
+        """``keep.rule: validated``: the kept candidate (saved before the checkpoint)."""
 
     # neat-python's reporter hooks (BaseReporter interface)
     def start_generation(self, generation: int) -> None:
@@ -208,6 +215,8 @@ class RunReporter:
         """Save the population of the next generation, then the state and outputs."""
         nxt = self.state.generation
         folder = self.run.checkpoints
+        if self.keeper is not None:  # first: a resume drops what the checkpoint does not cover
+            self.keeper.save(folder / VALIDATION_FILE)
         save_population(folder / f"{CKPT_PREFIX}{nxt}.json", self.population, nxt)
         write_json(
             folder / STATE_FILE,
@@ -220,6 +229,8 @@ class RunReporter:
                 "history": self.state.history,
             },
         )
+        if self.keeper is not None:
+            self.keeper.prune()
         for old in folder.glob(f"{CKPT_PREFIX}*.json"):  # keep this one and the one before
             suffix = old.name[len(CKPT_PREFIX) : -len(".json")]
             if suffix.isdigit() and int(suffix) < nxt - 1:
@@ -242,9 +253,15 @@ class RunReporter:
         """``history.csv``, ``learning_curve.csv``, ``best_genome.json``, ``summary.json``."""
         self.run.write_csv("history.csv", self.state.history, HISTORY_FIELDS)
         self.run.write_csv("learning_curve.csv", curve_rows(self.state.history), CURVE_FIELDS)
-        if self.state.best is not None:
-            self.state.best.save(self.run / GENOME_FILE)
-        self.run.write_summary(neat_summary(self.cfg, self.state))
+        returned = self.state.best
+        if self.keeper is not None:
+            self.keeper.write_csv(self.run)
+            kept = self.keeper.best_state
+            if kept is not None:
+                returned = NeatNet(str(kept["genome"]), str(self.run / NEAT_INI))
+        if returned is not None:
+            returned.save(self.run / GENOME_FILE)
+        self.run.write_summary(neat_summary(self.cfg, self.state, self.keeper))
 
 
 def curve_rows(history: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -261,13 +278,16 @@ def curve_rows(history: list[dict[str, Any]]) -> list[dict[str, Any]]:
     ]
 
 
-def neat_summary(cfg: KukaBaselineConfig, state: NeatState) -> dict[str, Any]:
+def neat_summary(
+    cfg: KukaBaselineConfig, state: NeatState, keeper: ValidatedBest | None = None
+) -> dict[str, Any]:
     """``summary.json`` of a NEAT run (written after every generation).
 
     ``"done": false`` and ``"stopped_by": "running"`` until the budget is spent, so a run
     killed mid-way is resumed by ``evodevo reproduce``, not taken as finished.
     """
     out = summarise(cfg, state.env_steps, state.train_s, 0.0, curve_rows(state.history), "")
+    out |= summary_fields(cfg.keep.rule, keeper)
     reason = _stop_reason(cfg, state)
     out["stopped_by"] = reason or "running"
     out["done"] = reason is not None
@@ -362,7 +382,17 @@ def train_neat(
             ini = write_neat_config(cfg, ev.n_actions, run)
             pop = neat.Population(neat_config(ini), seed=cfg.seed)
             state = NeatState()
-        reporter = RunReporter(run, cfg, state, quiet, hooks, population=pop)
+        keeper: ValidatedBest | None = None
+        if cfg.keep.rule == VALIDATED:  # resumed: without the generations to evaluate again
+            v = cfg.evaluation
+            keeper = ValidatedBest.load(
+                run.checkpoints / VALIDATION_FILE,
+                v.validation_seed,
+                v.validation_episodes,
+                "generation",
+                upto=state.generation - 1,
+            )
+        reporter = RunReporter(run, cfg, state, quiet, hooks, population=pop, keeper=keeper)
         pop.add_reporter(reporter)
         hooks.on_steps(state.env_steps)
 
@@ -386,6 +416,8 @@ def train_neat(
             state.episodes += int(res.reward.size)
             state.episodes_saved += res.episodes_saved
             state.train_s += time.perf_counter() - t0
+            if keeper is not None:  # after the clock: validation is not training time
+                keeper.check(ev, nets[best], state.generation, {"genome": nets[best].genome})
             state.history.append(
                 {
                     "generation": state.generation,
@@ -407,4 +439,4 @@ def train_neat(
         while _stop_reason(cfg, state) is None:
             pop.run(fitness, 1)
         reporter.write_outputs()
-    return neat_summary(cfg, state)
+    return neat_summary(cfg, state, keeper)

@@ -11,12 +11,15 @@ same loop trains sb3-contrib's RecurrentPPO (:mod:`evodevo.baselines.recurrent_p
 * Callbacks: SB3's :class:`~stable_baselines3.common.callbacks.EvalCallback` (success on
   training objects every ``budget.eval_every_steps``, timed so training time excludes it),
   :class:`~evodevo.baselines.sb3_files.SafeCheckpointCallback` (SB3's checkpoint callback
-  writing the model, and TD3's replay buffer, without pickle), :class:`ClockCallback` (training time of each checkpoint, older checkpoints pruned)
-  and :class:`BudgetCallback` (stops at the env-step or wall-clock budget).
+  writing the model, and TD3's replay buffer, without pickle), :class:`ClockCallback` (training time of each checkpoint, older checkpoints pruned),
+  :class:`BudgetCallback` (stops at the env-step or wall-clock budget) and, with
+  ``keep.rule: validated``, :class:`ValidationCallback` (a candidate snapshot every ``N`` env
+  steps scored on the validation episodes by the GRN's evaluator, :mod:`evodevo.return_rule`).
 
 :func:`train_sb3` writes ``model.safetensors``, ``learning_curve.csv`` (env steps, training
-seconds, success), ``summary.json`` and ``checkpoints/``; with ``resume`` it continues from the
-last checkpoint: the model is built from the run's config and its weights, optimiser states and
+seconds, success), ``summary.json`` and ``checkpoints/`` (with ``keep.rule: validated`` also
+``validation.csv`` and ``last_model.safetensors``, the final model, while ``model.safetensors`` is
+the kept candidate); with ``resume`` it continues from the last checkpoint: the model is built from the run's config and its weights, optimiser states and
 counters are loaded (:mod:`evodevo.baselines.sb3_files`; no pickle is read), and training goes on
 from a reset environment.
 """
@@ -41,6 +44,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
 from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_cnn import KukaCnn
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
+from evodevo.baselines.policies import Sb3Model
 from evodevo.baselines.recurrent_ppo import build_recurrent_ppo
 from evodevo.baselines.sb3_files import (
     MODEL_SUFFIX,
@@ -50,8 +54,10 @@ from evodevo.baselines.sb3_files import (
     save_sb3,
 )
 from evodevo.errors import EvodevoError
-from evodevo.grn.evaluator import make_env
-from evodevo.runs import RunDir, read_json, write_json
+from evodevo.grn.evaluator import Evaluator, make_env
+from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
+from evodevo.return_rule import VALIDATED, ValidatedBest, candidate_every, summary_fields
+from evodevo.runs import RunDir, atomic_write_bytes, read_json, write_json
 from evodevo.safe_io import refuse_legacy
 from evodevo.seeding import derive
 
@@ -63,6 +69,7 @@ __all__ = [
     "TimedEvalCallback",
     "ClockCallback",
     "StepsCallback",
+    "ValidationCallback",
     "train_sb3",
     "CURVE_FIELDS",
     "MODEL_FILE",
@@ -72,7 +79,10 @@ EVAL_ENV_KEY = 11
 """Seed stream of the training-time success estimates (EvalCallback's env)."""
 CKPT_PREFIX = "rl_model"
 MODEL_FILE = f"model{MODEL_SUFFIX}"
-"""The trained model of a PPO/TD3 run (:func:`evodevo.baselines.sb3_files.save_sb3`)."""
+"""The returned model of a PPO/TD3 run (:func:`evodevo.baselines.sb3_files.save_sb3`)."""
+LAST_MODEL_FILE = f"last_model{MODEL_SUFFIX}"
+"""``keep.rule: validated``: the final model, beside the kept candidate in :data:`MODEL_FILE`."""
+CANDIDATE_PREFIX = "candidate"
 _LEGACY = (f"{CKPT_PREFIX}_*_steps.zip", f"{CKPT_PREFIX}_replay_buffer_*_steps.pkl")
 CLOCK_FILE = "clock.json"
 REFILLS_FILE = "refills.json"
@@ -213,6 +223,59 @@ class ClockCallback(BaseCallback):
             write_clock(self.folder, self.num_timesteps, self.clock)
             prune_checkpoints(self.folder, keep=self.num_timesteps)
         return True
+
+
+class ValidationCallback(BaseCallback):
+    """``keep.rule: validated``: every ``every`` env steps, a candidate snapshot of the model.
+
+    The snapshot is saved for acting (``checkpoints/candidate_{n}_steps.safetensors``), scored
+    by the keeper on the validation episodes through ``evaluator`` (timed: not training time)
+    and kept if it has the most successes so far; the keeper's state is saved at once. It must
+    run before the checkpoint callback of the same step (a resume from a checkpoint drops the
+    candidates after it). :meth:`candidate` also serves the final model after training.
+    """
+
+    def __init__(
+        self,
+        keeper: ValidatedBest,
+        evaluator: Evaluator,
+        every: int,
+        clock: TrainClock,
+        run: RunDir,
+        algo: str,
+    ) -> None:
+        super().__init__()
+        self.keeper = keeper
+        self.algo = algo
+        self.evaluator = evaluator
+        self.every = every
+        self.clock = clock
+        self.run = run
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps % self.every == 0:
+            self.candidate(self.model)
+        return True
+
+    def candidate(self, model: Any) -> None:
+        """Score ``model`` as the candidate at its env steps (once per step count)."""
+        steps = int(model.num_timesteps)
+        rows = self.keeper.rows
+        if rows and int(rows[-1]["at"]) >= steps:
+            return
+        t0 = time.perf_counter()
+        folder = self.run.checkpoints
+        name = f"{CANDIDATE_PREFIX}_{steps}_steps{MODEL_SUFFIX}"
+        save_sb3(model, folder / name, training=False)
+        ref = Sb3Model(self.algo, str((folder / name).resolve()))
+        if not self.keeper.check(self.evaluator, ref, steps, {"file": name}):
+            (folder / name).unlink(missing_ok=True)
+        done = checkpoint_steps(folder)
+        for state in self.keeper.prune(upto=done[-1] if done else None):
+            (folder / str(state["file"])).unlink(missing_ok=True)
+        self.keeper.save(folder / VALIDATION_FILE)
+        self.keeper.write_csv(self.run)
+        self.clock.eval_s += time.perf_counter() - t0
 
 
 def write_clock(folder: Path, steps: int, clock: TrainClock) -> None:
@@ -404,10 +467,16 @@ def train_sb3(
     max_s = b.minutes * 60.0 if b.minutes is not None else None
     if resume:  # a pickle-based checkpoint is refused unopened, not silently started over
         refuse_legacy(run.path / "checkpoints", *_LEGACY)
+    validated = cfg.keep.rule == VALIDATED
+    every = (
+        candidate_every(max_steps, cfg.keep.candidates, cfg.keep.every_steps) if validated else 0
+    )
     env = _vec_env(cfg)
     eval_env = _vec_env(cfg)
     eval_env.seed(derive(cfg.seed, EVAL_ENV_KEY))
     folder = run.checkpoints
+    validator: ValidationCallback | None = None
+    scorer = Evaluator(cfg.evaluator_config(), None) if validated else None
     try:
         # A run killed before its first checkpoint has nothing to continue: start it.
         resume = resume and bool(checkpoint_steps(folder) if folder.is_dir() else [])
@@ -433,8 +502,18 @@ def train_sb3(
         )
         evaluator.rows = rows
         budget = BudgetCallback(clock, max_steps, max_s)
+        if scorer is not None:
+            validator = ValidationCallback(
+                _keeper(cfg, folder, done_steps),
+                scorer,
+                every,
+                clock,
+                run,
+                cfg.method,
+            )
         callbacks = CallbackList(
             [
+                *([validator] if validator is not None else []),  # before the checkpoint
                 SafeCheckpointCallback(
                     b.checkpoint_every_steps,
                     str(folder),
@@ -453,18 +532,53 @@ def train_sb3(
         if remaining > 0 and (max_s is None or clock.train_s < max_s):
             model.learn(remaining, callback=callbacks, reset_num_timesteps=not resume)
         train_s = clock.train_s
-        save_sb3(model, run / MODEL_FILE)
+        if validator is not None:
+            validator.candidate(model)  # the final model is the last candidate
+            save_sb3(model, run / LAST_MODEL_FILE)
+            _return_kept(validator.keeper, folder, run / MODEL_FILE)
+        else:
+            save_sb3(model, run / MODEL_FILE)
         write_clock(folder, model.num_timesteps, clock)
     finally:
         env.close()
         eval_env.close()
+        if scorer is not None:
+            scorer.close()
     summary = summarise(
         cfg, int(model.num_timesteps), train_s, clock.eval_s, evaluator.rows, budget.stopped_by
     )
+    summary |= summary_fields(cfg.keep.rule, validator.keeper if validator else None)
     if refills := buffer_refills(folder):
         summary["replay_buffer_refilled_at"] = refills
     run.write_summary(summary)
     return summary
+
+
+def _keeper(cfg: KukaBaselineConfig, folder: Path, upto: int) -> ValidatedBest:
+    """The validation state of a run continuing from env step ``upto`` (0: a fresh start).
+
+    Candidates after ``upto`` are dropped (they are validated again), with their files.
+    """
+    v = cfg.evaluation
+    keeper = ValidatedBest.load(
+        folder / VALIDATION_FILE, v.validation_seed, v.validation_episodes, "env_steps", upto
+    )
+    keep = {str(state["file"]) for _, state in keeper.kept}
+    for path in folder.glob(f"{CANDIDATE_PREFIX}_*_steps{MODEL_SUFFIX}"):
+        if path.name not in keep:
+            path.unlink()
+    return keeper
+
+
+def _return_kept(keeper: ValidatedBest, folder: Path, out: Path) -> None:
+    """Copy the kept candidate's file to ``out`` (the returned model); drop superseded ones."""
+    for state in keeper.prune():
+        (folder / str(state["file"])).unlink(missing_ok=True)
+    keeper.save(folder / VALIDATION_FILE)
+    kept = keeper.best_state
+    if kept is None:  # pragma: no cover - the final model is always a candidate
+        raise EvodevoError("keep.rule=validated: no candidate was validated")
+    atomic_write_bytes(out, (folder / str(kept["file"])).read_bytes())
 
 
 def first_reach(rows: list[dict[str, Any]], target: float) -> tuple[float | None, int | None]:

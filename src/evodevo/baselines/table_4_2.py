@@ -12,9 +12,14 @@ several seeds pooled):
   target (GRN/NEAT: the best genome's success in its generation; PPO/TD3: the EvalCallback's),
   over the runs that reached it, with how many did;
 * env steps of training (mean per run) and test episodes (total);
+* the return rule of each method's runs, read from their ``config.json`` (``evolution.keep``,
+  ``keep.rule``; :mod:`evodevo.return_rule`), and the validation episodes it ran (mean per run;
+  not training budget), with one sentence above the table saying whether every learner
+  returns its model by the same rule (SPEC §6);
 * the thesis' numbers (Table 4.2) in their own columns.
 
-All runs must have been tested on the same object split and test seed, or the table refuses.
+All runs must have been tested on the same object split and test seed, or the table refuses;
+the caption names the seed range of that test seed (:func:`evodevo.seed_split.range_label`).
 :func:`build_table` returns the rows; :func:`write_table` writes ``table_4_2.md``,
 ``table_4_2.csv`` and ``table_4_2_runs.csv``.
 """
@@ -26,7 +31,9 @@ from pathlib import Path
 from typing import Any
 
 from evodevo.errors import EvodevoError
+from evodevo.return_rule import describe_rule, rules_sentence
 from evodevo.runs import RunDir, atomic_write_text, read_json
+from evodevo.seed_split import range_label
 from evodevo.stats import rate
 
 __all__ = ["THESIS", "RunRow", "MethodRow", "read_run", "build_table", "write_table", "markdown"]
@@ -59,6 +66,12 @@ class RunRow:
     time_to_target_min: float | None
     objects: str
     test_seed: int
+    return_rule: str = ""
+    """The rule the run returned its model by (:func:`evodevo.return_rule.describe_rule`)."""
+    validation_episodes: int = 0
+    """Validation episodes of that rule (not training budget)."""
+    saved: dict[str, Any] | None = None
+    """The run's ``config.json`` (for the caption; not written to the CSV)."""
 
 
 @dataclass
@@ -82,6 +95,10 @@ class MethodRow:
     thesis_minutes: float | None
     thesis_efficiency: float | None
     thesis_episodes: float | None
+    return_rule: str = ""
+    """The rule of the method's runs (several joined with " / " when they differ)."""
+    validation_episodes: float = 0.0
+    """Mean validation episodes per run."""
 
 
 def _first_reach(rows: list[dict[str, str]], t_key: str, s_key: str, target: float) -> float | None:
@@ -155,6 +172,9 @@ def read_run(path: str | Path, objects: str = "test", target: float = 0.5) -> Ru
         time_to_target_min=None if reach_s is None else reach_s / 60.0,
         objects=str(ev["objects"]),
         test_seed=int(ev["test_seed"]),
+        return_rule=describe_rule(saved, summary),
+        validation_episodes=int(summary.get("validation_episodes", 0) or 0),
+        saved=saved,
     )
 
 
@@ -204,6 +224,8 @@ def build_table(
                 thesis_minutes=thesis.get("minutes"),
                 thesis_efficiency=thesis.get("efficiency"),
                 thesis_episodes=thesis.get("episodes"),
+                return_rule=" / ".join(sorted({r.return_rule for r in rs})),
+                validation_episodes=sum(r.validation_episodes for r in rs) / len(rs),
             )
         )
     return table, runs
@@ -216,25 +238,31 @@ def _f(v: float | None, fmt: str, none: str = "—") -> str:
 def markdown(table: list[MethodRow], runs: list[RunRow], target: float, title: str = "") -> str:
     """Table 4.2 as Markdown, with its object split, test seed and target named."""
     objects, test_seed = runs[0].objects, runs[0].test_seed
+    rules = rules_sentence([r.saved for r in runs if r.saved is not None])
     lines = [
         title or f"Table 4.2 (reproduced): Kuka grasping, {objects} objects",
         "",
-        f"Test: {objects} objects, test seed {test_seed}; success with Wilson 95 % interval, "
+        f"Test: {objects} objects, test seed {test_seed} ({range_label(test_seed)} range); "
+        f"success with Wilson 95 % interval, "
         f"runs pooled. Training time: mean per run. Efficiency: success points per training "
         f"minute. Time to target: mean minutes until the training-time success first reached "
-        f"{target:.2f} (runs that reached it / runs). Thesis columns: thesis Table 4.2.",
+        f"{target:.2f} (runs that reached it / runs). Validation episodes: mean per run, run by "
+        f"the return rule, not part of the training budget. Thesis columns: thesis Table 4.2.",
         "",
-        "| Method | Runs (seeds) | Success [95 % CI] | Training time | Env steps | Efficiency "
-        "| Time to target | Test episodes | Thesis success | Thesis time | Thesis efficiency "
-        "| Thesis test episodes |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        rules,
+        "",
+        "| Method | Runs (seeds) | Return rule | Success [95 % CI] | Training time | Env steps "
+        "| Validation episodes | Efficiency | Time to target | Test episodes | Thesis success "
+        "| Thesis time | Thesis efficiency | Thesis test episodes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table:
         ttt = _f(r.time_to_target_min, ".1f")
         lines.append(
-            f"| {r.method} | {r.runs} ({r.seeds}) | {100 * r.success_rate:.1f} % "
+            f"| {r.method} | {r.runs} ({r.seeds}) | {r.return_rule} | {100 * r.success_rate:.1f} % "
             f"[{100 * r.ci_low:.1f}, {100 * r.ci_high:.1f}] ({r.successes}/{r.episodes}) "
-            f"| {r.train_min:.1f} min | {r.env_steps:.0f} | {_f(r.efficiency, '.2f')} "
+            f"| {r.train_min:.1f} min | {r.env_steps:.0f} | {r.validation_episodes:.0f} "
+            f"| {_f(r.efficiency, '.2f')} "
             f"| {ttt}{' min' if r.time_to_target_min is not None else ''} "
             f"({r.reached_target}/{r.runs}) | {r.episodes} "
             f"| {_f(r.thesis_success, '.1f')}{' %' if r.thesis_success is not None else ''} "
@@ -256,8 +284,8 @@ def write_table(
     out_dir.write_csv(
         "table_4_2.csv", [asdict(r) for r in table], list(MethodRow.__dataclass_fields__)
     )
-    out_dir.write_csv(
-        "table_4_2_runs.csv", [asdict(r) for r in runs], list(RunRow.__dataclass_fields__)
-    )
+    fields = [f for f in RunRow.__dataclass_fields__ if f != "saved"]
+    rows = [{k: v for k, v in asdict(r).items() if k != "saved"} for r in runs]
+    out_dir.write_csv("table_4_2_runs.csv", rows, fields)
     atomic_write_text(out_dir / "table_4_2.md", markdown(table, runs, target))
     return table, runs

@@ -62,6 +62,12 @@ def kuka(
     config: Path | None = typer.Option(
         None, "--config", help="YAML config (configs/baselines_kuka.yaml)."
     ),
+    set_: list[str] | None = typer.Option(
+        None,
+        "--set",
+        help="Override a config key, e.g. --set keep.rule=validated or --set "
+        "evaluation.validation_episodes=20 (repeatable; applied last; unknown keys are an error).",
+    ),
     workers: int = typer.Option(1, help="Evaluator worker processes or Ray actors (NEAT)."),
     backend: str = typer.Option("local", help=BACKEND_HELP + " NEAT only."),
     address: str | None = typer.Option(None, help=ADDRESS_HELP),
@@ -80,7 +86,7 @@ def kuka(
     `baselines evaluate`.
     """
     from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
-    from evodevo.config import load_config, merge
+    from evodevo.config import load_config, merge, parse_sets
     from evodevo.parallel import set_single_thread
     from evodevo.runs import read_json
 
@@ -111,6 +117,7 @@ def kuka(
         ov.setdefault("budget", {})["env_steps"] = budget_steps
     if budget_minutes is not None:
         ov.setdefault("budget", {})["minutes"] = budget_minutes
+    ov = merge(ov, parse_sets(set_))
     if resume and config is None and (out / "config.json").is_file():
         saved = read_json(out / "config.json")
         if saved.get("kind") != "baseline":

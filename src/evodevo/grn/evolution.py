@@ -40,7 +40,7 @@ from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.optimizers import make_optimizer
 from evodevo.grn.selection import rank
-from evodevo.return_rule import STATE_FILE, VALIDATED, ValidatedBest
+from evodevo.return_rule import STATE_FILE, VALIDATED, ValidatedBest, summary_fields
 from evodevo.runs import RunDir, machine_info, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
@@ -563,12 +563,7 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
         "reevaluated_generations": evo.reevaluated,
         "final_pick": evo.final_pick,
         "kept": evo.config.evolution.keep,
-        "return_rule": (
-            evo.validated.summary()
-            if evo.validated is not None
-            else {"rule": evo.config.evolution.keep}
-        ),
-        "validation_episodes": 0 if evo.validated is None else evo.validated.episodes_run,
+        **summary_fields(evo.config.evolution.keep, evo.validated),
         "champion": evo.champion_record(),
         "best_fitness": h[-1].best_fitness if h else None,
         "best_training_success": h[-1].best_success if h else None,

@@ -27,7 +27,9 @@ from evodevo.reproduce.findings import findings
 from evodevo.reproduce.html_report import markdown_to_html
 from evodevo.reproduce.kuka_report import kuka_section
 from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, pct, successes
+from evodevo.return_rule import describe_rule, rules_sentence
 from evodevo.runs import atomic_write_text, machine_info
+from evodevo.seed_split import range_label
 from evodevo.seeding import parse_seeds
 from evodevo.stats import fisher_exact, mcnemar_exact_counts, rate
 
@@ -198,6 +200,8 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "",
     ]
     main_rows = []
+    saved: list[dict[str, Any]] = []
+    test_seeds: set[int] = set()
     for c in g.controllers:
         for s in parse_seeds(g.seeds):
             rdir = gdir / f"{c}_s{s}"
@@ -209,21 +213,30 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
             clean = t.get("clean", t)
             zero = t["baselines"].get("zero")
             rnd = t["baselines"].get("random")
+            conf = load_json(rdir / "config.json")
+            if conf is not None:
+                saved.append(conf)
+            if "test_seed" in t:
+                test_seeds.add(int(t["test_seed"]))
             main_rows.append(
                 f"| {c} | {s} | {summ.get('generations_run', '?')} | {pct(clean)} | {pct(t)} | "
                 f"{(t.get('retention') or 0) * 100:.1f} % | {pct(tr) if tr else 'n/a'} | "
-                f"{pct(zero) if zero else 'n/a'} | {pct(rnd) if rnd else 'n/a'} |"
+                f"{pct(zero) if zero else 'n/a'} | {pct(rnd) if rnd else 'n/a'} | "
+                f"{describe_rule(conf, summ) if conf is not None else '—'} |"
             )
     if not main_rows:
         return lines + ["(no GRN results: the GRN part was not run or did not finish)", ""]
+    ranges = ", ".join(f"first seed {t} ({range_label(t)} range)" for t in sorted(test_seeds))
     lines += [
         "### Test success, robustness and trivial policies (thesis Table 4.2 and Section 4.6.2)",
         "",
-        "| controller | seed | generations | test objects, clean | test objects, noise 0.03 | retention | training objects | all-zero (test) | random (test) |",
-        "|---|---|---|---|---|---|---|---|---|",
+        f"Test episodes: {ranges or 'seeds not recorded'}. {rules_sentence(saved)}",
+        "",
+        "| controller | seed | generations | test objects, clean | test objects, noise 0.03 | retention | training objects | all-zero (test) | random (test) | return rule |",
+        "|---|---|---|---|---|---|---|---|---|---|",
         *main_rows,
         f"| **thesis** | ? | 6 | — | — | {100 * THESIS_GRN['retention']:.1f} % | "
-        f"{100 * THESIS_GRN['success']:.1f} % (n=40) | — | — |",
+        f"{100 * THESIS_GRN['success']:.1f} % (n=40) | — | — | last (last generation's best) |",
         "",
     ]
     lines += _controllers_paired(gdir, g.controllers, parse_seeds(g.seeds))
@@ -298,16 +311,28 @@ def _controls_block(
         ep = successes(gdir / f"{grn}_s{s}" / "eval_test_0.03_episodes.csv", "genome")
         if ep is not None:
             grn_eps[s] = ep
-    ctrl_rows = [f"| GRN ({grn}, pooled over seeds) | {rate(kc, nc).fmt()} | — | — |"]
+    grn_rules = sorted(
+        {
+            describe_rule(conf, load_json(gdir / f"{grn}_s{s}" / "summary.json"))
+            for s in parse_seeds(g.seeds)
+            if (conf := load_json(gdir / f"{grn}_s{s}" / "config.json")) is not None
+        }
+    )
+    ctrl_rows = [
+        f"| GRN ({grn}, pooled over seeds) | {rate(kc, nc).fmt()} | — | — | "
+        f"{' / '.join(grn_rules) or '—'} |"
+    ]
     diffs = []
-    controls: list[tuple[str, dict[str, Any], list[int] | None]] = []
+    controls: list[tuple[str, dict[str, Any], list[int] | None, str]] = []
     for label, title in specs:
         for s in parse_seeds(g.control_seeds):
             cdir = gdir / f"{label}_s{s}"
             t = load_json(cdir / "repro_test_clean.json")
             if t is not None:
                 ep = successes(cdir / "eval_test_0_episodes.csv", "genome")
-                controls.append((f"{title}, seed {s}", t, ep))
+                conf = load_json(cdir / "config.json")
+                rule = describe_rule(conf, load_json(cdir / "summary.json")) if conf else "—"
+                controls.append((f"{title}, seed {s}", t, ep, rule))
     trivial = load_json(gdir / "baselines_test.json")
     triv_base = trivial["baselines"] if trivial else tests[0]["baselines"]
     for name, title in TRIVIAL_TITLES.items():
@@ -315,8 +340,8 @@ def _controls_block(
         if b is not None:
             ep = successes(gdir / "baselines_test_episodes.csv", name) if trivial else None
             row = {"successes": b["successes"], "episodes": b.get("n", tests[0]["episodes"])}
-            controls.append((title, {**b, **row}, ep))
-    for title, t, ep in controls:
+            controls.append((title, {**b, **row}, ep, "untrained"))
+    for title, t, ep, rule in controls:
         k2, n2 = int(t["successes"]), int(t["episodes"])
         p = fisher_exact(kc, nc, k2, n2)
         per_seed: list[str] = []
@@ -327,7 +352,7 @@ def _controls_block(
                 mcn.append(pair)
                 per_seed.append(f"s{s}: {fmt_pair(pair)}")
         ctrl_rows.append(
-            f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(per_seed) or '—'} |"
+            f"| {title} | {rate(k2, n2).fmt()} | {p:.3g} | {'; '.join(per_seed) or '—'} | {rule} |"
         )
         diffs.append((title, kc / nc - k2 / n2, p, mcn))
     lines = [
@@ -339,8 +364,8 @@ def _controls_block(
         "The Fisher column treats the pooled GRN episodes as independent of the policy's, though "
         "they share the test seeds; it is indicative only where a paired entry exists.",
         "",
-        "| policy | test success [95 % CI] | Fisher p vs pooled GRN (unpaired) | GRN − policy per GRN seed, points (McNemar p) |",
-        "|---|---|---|---|",
+        "| policy | test success [95 % CI] | Fisher p vs pooled GRN (unpaired) | GRN − policy per GRN seed, points (McNemar p) | return rule |",
+        "|---|---|---|---|---|",
         *ctrl_rows,
         "",
     ]
