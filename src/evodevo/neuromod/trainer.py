@@ -23,7 +23,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +33,7 @@ from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, EvodevoError
 from evodevo.neuromod.agent import BiarmAgent
 from evodevo.neuromod.checkpoint import (
+    ResumePoint,
     latest_checkpoint,
     latest_resume_point,
     load_checkpoint,
@@ -375,6 +376,78 @@ def train(
     other = get_trainer(var.architecture)  # e.g. sb3: an SB3 DQN per task, same run files
     if other is not None:
         return other(cfg, var, seed, out, resume, hook, on_task, stop)
+    run, specs, d_max, point = _open_run(cfg, var, seed, out, resume)
+    agent = BiarmAgent(cfg, var, d_max, seed)
+    state = _restore(run, agent, var, seed, point if resume else None)
+    seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
+    ctx = _RunContext(run, agent, var, seed, cfg.checkpoint_every, RunClock(state.before), stop)
+    with (
+        CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
+        CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
+        (
+            CsvAppender(run / "validation.csv", VALIDATION_FIELDS)
+            if any(cfg.dqn.for_task(s.env_id).keep == "best" for s in specs)
+            else contextlib.nullcontext()
+        ) as validation,
+    ):
+        for i in range(state.start, len(specs)):
+            spec = specs[i]
+            if on_task is not None:
+                on_task(i, spec)
+            runner = TaskRunner(
+                agent, spec, i, seed, state.step, metrics, neuromod, hook, resume=state.partial
+            )
+            state.partial = None
+            _train_task(ctx, runner, state.results, validation)
+            state.step = runner.step
+            state.results.append(_task_result(agent, runner, state.results, seeds))
+            agent.end_task(runner.buf)  # EWC: this task's Fisher (a no-op for other variants)
+            record_returns_after(agent, specs, i, state.results, seeds)  # Acc_{j,i} of Eq. 1.4
+            save_checkpoint(
+                run.checkpoints, i, ctx.payload(agent.state(), state.results, state.step)
+            )
+            if stop is not None and i + 1 < len(specs):
+                stop.check(f"task {i} ({spec.env_id})", ctx.hint)
+    agent.end_training()
+    summary = _summary(cfg, ctx, specs, state.results, seeds, d_max)
+    run.write_summary(summary)
+    return summary
+
+
+def _summary(
+    cfg: BiarmConfig,
+    ctx: _RunContext,
+    specs: list[TaskSpec],
+    results: list[dict[str, Any]],
+    seeds: list[int],
+    d_max: int,
+) -> dict[str, Any]:
+    """``summary.json``: every column evaluated again after the whole sequence ("final
+    performance", SPEC §1.7) beside its saved results, the settings and the run's cost."""
+    agent = ctx.agent
+    tasks = [
+        task_record(res, evaluate_column(agent, i, spec, seeds))
+        for i, (spec, res) in enumerate(zip(specs, results, strict=True))
+    ]
+    return {
+        "variant": ctx.var.name,
+        "seed": ctx.seed,
+        "module_learning": cfg.modules.learning,
+        "adapter_dim": cfg.network.adapter_dim,
+        "lateral_kernel": getattr(agent.net, "kernel", None),
+        "d_max": d_max,
+        "eval_seeds": seeds,
+        "tasks": tasks,
+        "final_states": agent.modules.states.tolist() if agent.modules is not None else None,
+        **ctx.clock(),  # summed over resumed sessions (see RunClock)
+    }
+
+
+def _open_run(
+    cfg: BiarmConfig, var: Variant, seed: int, out: str | Path, resume: bool
+) -> tuple[RunDir, list[TaskSpec], int, ResumePoint | None]:
+    """Check the tasks, open the run folder and its newest checkpoint; a new run writes its
+    config, a resumed one must match the saved config."""
     specs, d_max = resolve_tasks(cfg)
     run = RunDir(out)
     point = latest_resume_point(run.path / "checkpoints")
@@ -387,133 +460,131 @@ def train(
         check_resume(run, var, seed, cfg)
     else:
         run.write_config({"variant": var.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
-    agent = BiarmAgent(cfg, var, d_max, seed)
-    results: list[dict[str, Any]] = []
-    step = 0
-    start = 0
+    return run, specs, d_max, point
+
+
+@dataclass
+class _ResumeState:
+    """Where a run (re)starts: the finished tasks' results, the environment step, the first
+    task to train, a mid-task runner state, and the time spent before the checkpoint."""
+
+    results: list[dict[str, Any]] = field(default_factory=list)
+    step: int = 0
+    start: int = 0
     partial: dict[str, Any] | None = None
-    # time spent before the resume point (checkpoints carry it; older ones do not)
     before: Mapping[str, Any] | None = None
-    if resume and point is not None:
-        ckpt = load_checkpoint(point.path)
-        _check_payload(ckpt, point.path, var, seed)
-        before = ckpt.get("elapsed", RunClock.UNKNOWN)
-        results = list(ckpt["results"])
-        step = int(ckpt["step"])
-        if point.finished_task:
-            agent.load_state(ckpt["agent"])
-            start = point.task + 1
-        else:
-            agent.load_train_state(ckpt["agent"])
-            start = point.task
-            partial = ckpt["runner"]
-        _truncate_csv(run, "metrics.csv", METRIC_FIELDS, step)
-        _truncate_csv(run, "neuromod.csv", NEUROMOD_FIELDS, step)
-        _truncate_csv(run, "validation.csv", VALIDATION_FIELDS, step)
-    else:
+
+
+def _restore(
+    run: RunDir, agent: BiarmAgent, var: Variant, seed: int, point: ResumePoint | None
+) -> _ResumeState:
+    """Load the checkpoint at ``point`` into ``agent`` (and drop the CSV rows written after
+    it), or start afresh without one."""
+    if point is None:
         for name in ("metrics.csv", "neuromod.csv", "validation.csv"):
             (run / name).unlink(missing_ok=True)
-    seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
-    every = cfg.checkpoint_every
-    hint = resume_hint(run.path)
-    elapsed = RunClock(before)
+        return _ResumeState()
+    ckpt = load_checkpoint(point.path)
+    _check_payload(ckpt, point.path, var, seed)
+    state = _ResumeState(
+        results=list(ckpt["results"]),
+        step=int(ckpt["step"]),
+        # time spent before the resume point (checkpoints carry it; older ones do not)
+        before=ckpt.get("elapsed", RunClock.UNKNOWN),
+    )
+    if point.finished_task:
+        agent.load_state(ckpt["agent"])
+        state.start = point.task + 1
+    else:
+        agent.load_train_state(ckpt["agent"])
+        state.start = point.task
+        state.partial = ckpt["runner"]
+    _truncate_csv(run, "metrics.csv", METRIC_FIELDS, state.step)
+    _truncate_csv(run, "neuromod.csv", NEUROMOD_FIELDS, state.step)
+    _truncate_csv(run, "validation.csv", VALIDATION_FIELDS, state.step)
+    return state
 
-    with (
-        CsvAppender(run / "metrics.csv", METRIC_FIELDS) as metrics,
-        CsvAppender(run / "neuromod.csv", NEUROMOD_FIELDS) as neuromod,
-        (
-            CsvAppender(run / "validation.csv", VALIDATION_FIELDS)
-            if any(cfg.dqn.for_task(s.env_id).keep == "best" for s in specs)
-            else contextlib.nullcontext()
-        ) as validation,
-    ):
-        for i in range(start, len(specs)):
-            spec = specs[i]
-            if on_task is not None:
-                on_task(i, spec)
-            runner = TaskRunner(agent, spec, i, seed, step, metrics, neuromod, hook, resume=partial)
-            partial = None
-            try:
-                while runner.episodes_done < spec.episodes:
-                    runner.episode()
-                    runner.validate(validation)
-                    k = runner.episodes_done
-                    stopping = stop is not None and stop.requested
-                    if k < spec.episodes and ((every and k % every == 0) or stopping):
-                        save_partial_checkpoint(
-                            run.checkpoints,
-                            i,
-                            k,
-                            {
-                                "agent": agent.train_state(),
-                                "runner": runner.state(),
-                                "results": results,
-                                "step": runner.step,
-                                "variant": var.name,
-                                "seed": seed,
-                                "elapsed": elapsed(),
-                            },
-                        )
-                        if stop is not None:
-                            stop.check(f"episode {k} of task {i} ({spec.env_id})", hint)
-            finally:
-                runner.close()
-            step, per_step = runner.step, runner.per_step
-            # dqn.keep: best loads the best validated parameters; the last network's returns on
-            # the evaluation seeds are recorded beside (reporting only, never for selection)
-            last = evaluate_column(agent, i, spec, seeds) if runner.keeper is not None else None
-            kept = runner.keep()
-            if kept is not None:
-                kept["last_network_returns"] = last
-            initial = evaluate_column(agent, i, spec, seeds)
-            results.append(
-                {
-                    **({"validation": kept} if kept is not None else {}),
-                    "env_id": spec.env_id,
-                    "episodes": spec.episodes,
-                    "max_steps": spec.max_steps,
-                    "train_steps": step - (results[-1]["end_step"] if results else 0),
-                    "end_step": step,
-                    "eval_returns_initial": initial,
-                    "us_per_step": 1e6 * float(np.median(per_step)) if per_step else math.nan,
-                }
-            )
-            agent.end_task(runner.buf)  # EWC: this task's Fisher (a no-op for other variants)
-            record_returns_after(agent, specs, i, results, seeds)  # Acc_{j,i} of Eq. 1.4
-            save_checkpoint(
-                run.checkpoints,
-                i,
-                {
-                    "agent": agent.state(),
-                    "results": results,
-                    "step": step,
-                    "variant": var.name,
-                    "seed": seed,
-                    "elapsed": elapsed(),
-                },
-            )
-            if stop is not None and i + 1 < len(specs):
-                stop.check(f"task {i} ({spec.env_id})", hint)
-    agent.end_training()
-    tasks = []
-    for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
-        tasks.append(task_record(res, evaluate_column(agent, i, spec, seeds)))
-    summary = {
-        "variant": var.name,
-        "seed": seed,
-        "module_learning": cfg.modules.learning,
-        "adapter_dim": cfg.network.adapter_dim,
-        "lateral_kernel": getattr(agent.net, "kernel", None),
-        "d_max": d_max,
-        "eval_seeds": seeds,
-        "tasks": tasks,
-        "final_states": agent.modules.states.tolist() if agent.modules is not None else None,
-        # summed over resumed sessions; timing_complete false: resumed from a checkpoint
-        # written before checkpoints carried the time, so only the time since then is counted
-        **elapsed(),
+
+@dataclass
+class _RunContext:
+    """What every checkpoint of a run carries besides the agent, and how it stops."""
+
+    run: RunDir
+    agent: BiarmAgent
+    var: Variant
+    seed: int
+    every: int
+    clock: RunClock
+    stop: GracefulStop | None
+
+    @property
+    def hint(self) -> str:
+        return resume_hint(self.run.path)
+
+    def payload(
+        self, agent_state: dict[str, Any], results: list[dict[str, Any]], step: int
+    ) -> dict[str, Any]:
+        return {
+            "agent": agent_state,
+            "results": results,
+            "step": step,
+            "variant": self.var.name,
+            "seed": self.seed,
+            "elapsed": self.clock(),
+        }
+
+
+def _train_task(
+    ctx: _RunContext, runner: TaskRunner, results: list[dict[str, Any]], validation: Any
+) -> None:
+    """Train task ``runner.index`` to its episode budget, validating after each episode and
+    checkpointing every ``checkpoint_every`` episodes (and when a stop was requested)."""
+    spec, i, stop = runner.spec, runner.index, ctx.stop
+    try:
+        while runner.episodes_done < spec.episodes:
+            runner.episode()
+            runner.validate(validation)
+            k = runner.episodes_done
+            stopping = stop is not None and stop.requested
+            if k < spec.episodes and ((ctx.every and k % ctx.every == 0) or stopping):
+                save_partial_checkpoint(
+                    ctx.run.checkpoints,
+                    i,
+                    k,
+                    {
+                        **ctx.payload(ctx.agent.train_state(), results, runner.step),
+                        "runner": runner.state(),
+                    },
+                )
+                if stop is not None:
+                    stop.check(f"episode {k} of task {i} ({spec.env_id})", ctx.hint)
+    finally:
+        runner.close()
+
+
+def _task_result(
+    agent: BiarmAgent, runner: TaskRunner, results: list[dict[str, Any]], seeds: list[int]
+) -> dict[str, Any]:
+    """The finished task's record: the kept column's greedy returns on the evaluation seeds
+    ("initial performance"), its validation record, training steps and time per step."""
+    spec, i, step, per_step = runner.spec, runner.index, runner.step, runner.per_step
+    # dqn.keep: best loads the best validated parameters; the last network's returns on
+    # the evaluation seeds are recorded beside (reporting only, never for selection)
+    last = evaluate_column(agent, i, spec, seeds) if runner.keeper is not None else None
+    kept = runner.keep()
+    if kept is not None:
+        kept["last_network_returns"] = last
+    initial = evaluate_column(agent, i, spec, seeds)
+    return {
+        **({"validation": kept} if kept is not None else {}),
+        "env_id": spec.env_id,
+        "episodes": spec.episodes,
+        "max_steps": spec.max_steps,
+        "train_steps": step - (results[-1]["end_step"] if results else 0),
+        "end_step": step,
+        "eval_returns_initial": initial,
+        "us_per_step": 1e6 * float(np.median(per_step)) if per_step else math.nan,
     }
-    run.write_summary(summary)
-    return summary
 
 
 def load_agent(run_dir: str | Path) -> BiarmAgent:
