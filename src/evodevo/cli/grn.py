@@ -145,9 +145,10 @@ def evolve(
     ),
     keep: str | None = typer.Option(
         None,
-        help="Which genome the run returns: last (the last generation's best) or record (the "
-        "champion by lifetime success record; evolution.keep) [the config's: record in the "
-        "vision preset, last in the thesis preset].",
+        help="Which genome the run returns: last (the last generation's best), record (the "
+        "champion by lifetime success record) or validated (each generation's best scored on "
+        "evaluation.validation_episodes validation episodes, the most successes kept); "
+        "evolution.keep [the config's: record in the vision preset, last in the thesis preset].",
     ),
     optimizer: str | None = typer.Option(
         None,
