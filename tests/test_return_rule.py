@@ -125,6 +125,12 @@ def test_candidates_are_spread_over_the_step_budget_or_need_every_steps():
     assert candidate_every(None, 15, 700) == 700
     with pytest.raises(ConfigError, match="keep.every_steps"):
         candidate_every(None, 15, None)
+    from evodevo.baselines.kuka_config import KukaBaselineConfig
+
+    minutes = {"keep": {"rule": "validated"}, "budget": {"minutes": 5}}
+    with pytest.raises(ConfigError, match="keep.every_steps"):  # at load, before any training
+        from_dict(KukaBaselineConfig, {**minutes, "method": "td3"})
+    assert from_dict(KukaBaselineConfig, {**minutes, "method": "neat"}).keep.rule == "validated"
 
 
 # -- the GRN --------------------------------------------------------------------------------

@@ -24,6 +24,7 @@ from evodevo.grn.config import EnvConfig, EvaluationConfig, GrnConfig, SensorCon
 
 __all__ = [
     "METHODS",
+    "SB3_METHODS",
     "BudgetConfig",
     "CnnConfig",
     "PpoConfig",
@@ -36,6 +37,9 @@ __all__ = [
 
 METHODS = ("ppo", "td3", "neat", "random", "zero", "recurrent_ppo")
 """The Kuka baselines of SPEC §4."""
+
+SB3_METHODS = ("ppo", "td3", "recurrent_ppo")
+"""The methods trained by Stable-Baselines3 (sb3-contrib) in steps, not generations."""
 
 Method = Literal["ppo", "td3", "neat", "random", "zero", "recurrent_ppo"]
 
@@ -264,6 +268,13 @@ class KukaBaselineConfig:
     def validate(self) -> None:
         if self.method not in METHODS:
             raise ConfigError(f"method={self.method!r} is not known; choose one of {list(METHODS)}")
+        snapshots = self.keep.rule == "validated" and self.method in SB3_METHODS
+        no_steps = self.budget.env_steps is None and self.budget.minutes is not None
+        if snapshots and no_steps and self.keep.every_steps is None:
+            raise ConfigError(
+                "keep.rule=validated with a wall-clock budget only needs keep.every_steps "
+                "(env steps between candidates); set it, or give budget.env_steps"
+            )
 
     def evaluator_config(self) -> GrnConfig:
         """The config the GRN :class:`~evodevo.grn.evaluator.Evaluator` runs this baseline with.

@@ -26,6 +26,10 @@ CONFIGS = [
     ("BIARM (`evodevo biarm`, configs/biarm.yaml)", "evodevo.neuromod.config:BiarmConfig"),
     ("GRN (`evodevo grn`, configs/grn.yaml)", "evodevo.grn.config:GrnConfig"),
     (
+        "Kuka baselines (`evodevo baselines kuka`, configs/baselines_kuka.yaml)",
+        "evodevo.baselines.kuka_config:KukaBaselineConfig",
+    ),
+    (
         "Reproduction budget (`evodevo reproduce`, configs/reproduce_*.yaml)",
         "evodevo.reproduce.budget:ReproduceConfig",
     ),
