@@ -88,156 +88,184 @@ def _biarm_tasks(b: Any) -> list[str]:
 
 
 def plan(cfg: ReproduceConfig, out: Path) -> list[Step]:
-    """Every step of the budget, in order."""
+    """Every step of the budget, in order: the BIARM grids, then the GRN's trivial policies,
+    evolutions and tests, the Kuka baselines, and last the GRN's ablations and plots."""
+    steps = _biarm_steps(cfg, out) if cfg.biarm.enabled else []
+    if cfg.grn.enabled:
+        first, late = _grn_steps(cfg, out)
+        steps += first + _kuka_steps(cfg, out) + late
+    return steps
+
+
+def _biarm_steps(cfg: ReproduceConfig, out: Path) -> list[Step]:
+    """One ``biarm compare`` grid per protocol."""
     w = str(cfg.workers)
     steps: list[Step] = []
-    if cfg.biarm.enabled:
-        b = cfg.biarm
-        grids = [("biarm", b.protocol), *b.other_protocols.items()]
-        for folder, protocol in grids:
-            bdir = out / folder
-            steps.append(
-                Step(
-                    "biarm-compare" if folder == "biarm" else f"biarm-compare-{protocol}",
-                    [
-                        "biarm",
-                        "compare",
-                        "--variants",
-                        ",".join(b.variants),
-                        "--seeds",
-                        b.seeds,
-                        "--protocol",
-                        protocol,
-                        *_biarm_tasks(b),
-                        "--set",
-                        f"eval.episodes={b.eval_episodes}",
-                        "--workers",
-                        w,
-                        "--out",
-                        str(bdir),
-                    ],
-                    [bdir / "table_3_2.md"],
-                )
+    b = cfg.biarm
+    grids = [("biarm", b.protocol), *b.other_protocols.items()]
+    for folder, protocol in grids:
+        bdir = out / folder
+        steps.append(
+            Step(
+                "biarm-compare" if folder == "biarm" else f"biarm-compare-{protocol}",
+                [
+                    "biarm",
+                    "compare",
+                    "--variants",
+                    ",".join(b.variants),
+                    "--seeds",
+                    b.seeds,
+                    "--protocol",
+                    protocol,
+                    *_biarm_tasks(b),
+                    "--set",
+                    f"eval.episodes={b.eval_episodes}",
+                    "--workers",
+                    w,
+                    "--out",
+                    str(bdir),
+                ],
+                [bdir / "table_3_2.md"],
             )
-    if cfg.grn.enabled:
-        g = cfg.grn
-        # The trivial policies run once per object split; every evaluation reuses them
-        # (same test seeds, so the same episodes).
-        for objects, n in (("test", g.test_episodes), ("train", g.train_episodes)):
-            path = out / "grn" / f"baselines_{objects}.json"
-            steps.append(
-                Step(
-                    f"grn-baselines-{objects}",
-                    [
-                        "grn",
-                        "baselines",
-                        "--test-episodes",
-                        str(n),
-                        "--objects",
-                        objects,
-                        "--workers",
-                        w,
-                        "--out",
-                        str(path),
-                    ],
-                    [path],
-                )
-            )
-        # Ablations and plots of every evolution run after all evolutions and tests.
-        late: list[Step] = []
-        for label, _controller, seed, flags in _grn_runs(cfg, out):
-            rdir = out / "grn" / f"{label}_s{seed}"
-            own = g.vision_budget == "preset" and label.startswith("vision")
-            budget = [] if own else [
-                "--population",
-                str(g.population),
-                "--generations",
-                str(g.generations),
-                "--episodes",
-                str(g.episodes),
-            ]  # fmt: skip
-            steps.append(
-                Step(
-                    f"grn-evolve-{label}-s{seed}",
-                    [
-                        "grn",
-                        "evolve",
-                        *budget,
-                        "--seed",
-                        str(seed),
-                        "--workers",
-                        w,
-                        *flags,
-                        "--out",
-                        str(rdir),
-                    ],
-                    [rdir / "summary.json"],
-                    resume_if=rdir / "config.json",
-                )
-            )
-            # A noisy evaluation also runs the clean test and the trivial policies on the same
-            # seeds (evodevo.grn.evaluation), so a controller needs one test call, not two.
-            if label in g.controllers:
-                evals = [
-                    ("test_noisy", "test", 0.03, g.test_episodes),
-                    ("train_clean", "train", 0.0, g.train_episodes),
-                ]
-            else:
-                evals = [("test_clean", "test", 0.0, g.test_episodes)]
-            for tag, objects, noise, n in evals:
-                steps.append(
-                    Step(
-                        f"grn-evaluate-{label}-s{seed}-{tag}",
-                        [
-                            "grn",
-                            "evaluate",
-                            str(rdir),
-                            "--test-episodes",
-                            str(n),
-                            "--objects",
-                            objects,
-                            "--noise",
-                            repr(noise),
-                            "--workers",
-                            w,
-                            "--baselines-from",
-                            str(out / "grn" / f"baselines_{objects}.json"),
-                            "--json",
-                        ],
-                        [rdir / f"repro_{tag}.json"],
-                        capture_json=rdir / f"repro_{tag}.json",
-                    )
-                )
-            if label in g.controllers:
-                # the neuromodulated GRN: one ablation per modulator (SPEC §5); else the nine
-                # ablations of SPEC §2.5, which apply to plain GRN genomes only
-                modulated = label == "neuromodulated"
-                late.append(
-                    Step(
-                        f"grn-ablate-{label}-s{seed}",
-                        [
-                            "grn",
-                            "ablate",
-                            str(rdir),
-                            "--test-episodes",
-                            str(g.ablation_episodes),
-                            "--workers",
-                            w,
-                            *(["--modulators"] if modulated else []),
-                        ],
-                        [rdir / ("modulator_ablations.csv" if modulated else "ablations.csv")],
-                    )
-                )
-                late.append(
-                    Step(
-                        f"grn-plot-{label}-s{seed}",
-                        ["grn", "plot", str(rdir)],
-                        [rdir / "figures" / "expression_trace.png"],
-                    )
-                )
-        steps += _kuka_steps(cfg, out)
-        steps += late
+        )
     return steps
+
+
+def _grn_steps(cfg: ReproduceConfig, out: Path) -> tuple[list[Step], list[Step]]:
+    """The GRN's trivial policies and every evolution with its tests, and (second list) the
+    ablations and plots, which run after all evolutions and tests."""
+    g = cfg.grn
+    w = str(cfg.workers)
+    steps: list[Step] = []
+    # The trivial policies run once per object split; every evaluation reuses them
+    # (same test seeds, so the same episodes).
+    for objects, n in (("test", g.test_episodes), ("train", g.train_episodes)):
+        path = out / "grn" / f"baselines_{objects}.json"
+        steps.append(
+            Step(
+                f"grn-baselines-{objects}",
+                [
+                    "grn",
+                    "baselines",
+                    "--test-episodes",
+                    str(n),
+                    "--objects",
+                    objects,
+                    "--workers",
+                    w,
+                    "--out",
+                    str(path),
+                ],
+                [path],
+            )
+        )
+    # Ablations and plots of every evolution run after all evolutions and tests.
+    late: list[Step] = []
+    for label, _controller, seed, flags in _grn_runs(cfg, out):
+        run_steps, run_late = _grn_run_steps(cfg, out, label, seed, flags)
+        steps += run_steps
+        late += run_late
+    return steps, late
+
+
+def _grn_run_steps(
+    cfg: ReproduceConfig, out: Path, label: str, seed: int, flags: list[str]
+) -> tuple[list[Step], list[Step]]:
+    """One evolution: evolve, test (and, for a studied controller, ablate and plot)."""
+    g = cfg.grn
+    w = str(cfg.workers)
+    steps: list[Step] = []
+    late: list[Step] = []
+    rdir = out / "grn" / f"{label}_s{seed}"
+    own = g.vision_budget == "preset" and label.startswith("vision")
+    budget = [] if own else [
+        "--population",
+        str(g.population),
+        "--generations",
+        str(g.generations),
+        "--episodes",
+        str(g.episodes),
+    ]  # fmt: skip
+    steps.append(
+        Step(
+            f"grn-evolve-{label}-s{seed}",
+            [
+                "grn",
+                "evolve",
+                *budget,
+                "--seed",
+                str(seed),
+                "--workers",
+                w,
+                *flags,
+                "--out",
+                str(rdir),
+            ],
+            [rdir / "summary.json"],
+            resume_if=rdir / "config.json",
+        )
+    )
+    # A noisy evaluation also runs the clean test and the trivial policies on the same
+    # seeds (evodevo.grn.evaluation), so a controller needs one test call, not two.
+    if label in g.controllers:
+        evals = [
+            ("test_noisy", "test", 0.03, g.test_episodes),
+            ("train_clean", "train", 0.0, g.train_episodes),
+        ]
+    else:
+        evals = [("test_clean", "test", 0.0, g.test_episodes)]
+    for tag, objects, noise, n in evals:
+        steps.append(
+            Step(
+                f"grn-evaluate-{label}-s{seed}-{tag}",
+                [
+                    "grn",
+                    "evaluate",
+                    str(rdir),
+                    "--test-episodes",
+                    str(n),
+                    "--objects",
+                    objects,
+                    "--noise",
+                    repr(noise),
+                    "--workers",
+                    w,
+                    "--baselines-from",
+                    str(out / "grn" / f"baselines_{objects}.json"),
+                    "--json",
+                ],
+                [rdir / f"repro_{tag}.json"],
+                capture_json=rdir / f"repro_{tag}.json",
+            )
+        )
+    if label in g.controllers:
+        # the neuromodulated GRN: one ablation per modulator (SPEC §5); else the nine
+        # ablations of SPEC §2.5, which apply to plain GRN genomes only
+        modulated = label == "neuromodulated"
+        late.append(
+            Step(
+                f"grn-ablate-{label}-s{seed}",
+                [
+                    "grn",
+                    "ablate",
+                    str(rdir),
+                    "--test-episodes",
+                    str(g.ablation_episodes),
+                    "--workers",
+                    w,
+                    *(["--modulators"] if modulated else []),
+                ],
+                [rdir / ("modulator_ablations.csv" if modulated else "ablations.csv")],
+            )
+        )
+        late.append(
+            Step(
+                f"grn-plot-{label}-s{seed}",
+                ["grn", "plot", str(rdir)],
+                [rdir / "figures" / "expression_trace.png"],
+            )
+        )
+    return steps, late
 
 
 def _kuka_steps(cfg: ReproduceConfig, out: Path) -> list[Step]:
