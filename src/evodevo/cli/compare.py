@@ -35,7 +35,12 @@ def kuka(
     objects: str = typer.Option("test", help="Which test result to read: test or train objects."),
     target: float = typer.Option(0.5, help="Success whose first reach is the time to target."),
 ) -> None:
-    """Thesis Table 4.2 from tested run directories: Markdown and CSV, thesis numbers beside."""
+    """Thesis Table 4.2 from tested run directories: Markdown and CSV, thesis numbers beside.
+
+    Each method's return rule (read from its runs' config.json: evolution.keep, keep.rule) and
+    validation episodes are columns; the caption names the test's seed range and says whether
+    every learner returns its model by the same rule (SPEC §6).
+    """
     from evodevo.baselines.table_4_2 import write_table
 
     if objects not in ("test", "train"):
