@@ -209,7 +209,7 @@ def test_eq_3_7_relative_to_rest_gives_eta_base_at_rest():
     assert plain.lr() == pytest.approx(0.0005)
     assert rel.lr() == pytest.approx(0.001)
     for agent in (plain, rel):
-        agent.modules._s[:] = torch.tensor([0.9, 0.1, 0.7, 0.3])  # internal layout
+        agent.modules.set_states([0.9, 0.7, 0.1, 0.3])  # DA, 5HT, NE, ACh
     assert rel.lr() == pytest.approx(plain.lr() / 0.5)
     pnn = BiarmAgent(rel_cfg, get_variant("pnn"), obs_dim=4, seed=0)
     assert pnn.lr() == 0.001

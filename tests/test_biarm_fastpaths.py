@@ -30,7 +30,7 @@ def _trained_looking_net(gated: bool) -> ProgressiveNet:
     with torch.no_grad():
         for p in net.parameters():
             p.add_(0.2 * torch.randn(p.shape, generator=gen))
-    net._refresh_frozen()
+    net.refresh_frozen()
     return net
 
 
@@ -81,8 +81,8 @@ def _reference_step(mods: Neuromodulators, obs: np.ndarray, reward: float) -> np
     d, h = mods.obs_dim, mods.hidden
     w1, b1 = mods.w1.detach().double().numpy(), mods.b1.detach().double().numpy()
     w2, b2 = mods.w2.detach().double().numpy(), mods.b2.detach().double().numpy()
-    s = mods._s.astype(np.float64).copy()
-    tau = np.array(mods._tau_py)
+    s = mods.state_array.astype(np.float64).copy()
+    tau = np.array(mods.taus_internal)
 
     def target(m: int, extra: float) -> float:
         x = np.concatenate([obs, [extra]])
@@ -106,7 +106,7 @@ def test_module_step_follows_in_place_parameter_edits():
         mods.w1.mul_(1.5)
     want = _reference_step(mods, obs, 2.0)
     mods.step(obs, 2.0)
-    np.testing.assert_allclose(mods._s, want, rtol=1e-5)
+    np.testing.assert_allclose(mods.state_array, want, rtol=1e-5)
 
 
 def test_learned_modules_step_with_the_trained_weights():
@@ -128,7 +128,7 @@ def test_learned_modules_step_with_the_trained_weights():
     obs = rng.standard_normal(4).astype(np.float32)
     want = _reference_step(mods, obs, 0.5)
     agent.observe(obs, 0.5)
-    np.testing.assert_allclose(mods._s, want, rtol=1e-5)
+    np.testing.assert_allclose(mods.state_array, want, rtol=1e-5)
 
 
 def test_direct_adam_step_equals_optimizer_step_bit_for_bit():

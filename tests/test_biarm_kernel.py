@@ -290,7 +290,7 @@ def test_module_step_kernel_equals_the_numpy_step(ext, ablated):
     for name in ablated:
         assert fast.states[list(("DA", "5HT", "NE", "ACh")).index(name)] == 0.5
     # the state tensor the agent reads is the memory the C++ step writes
-    assert torch.equal(fast.state_t, torch.from_numpy(fast._s))
+    assert torch.equal(fast.state_t, torch.from_numpy(fast.state_array))
 
 
 def test_module_step_kernel_rejects_a_wrong_buffer(ext):
@@ -308,8 +308,8 @@ def test_agent_runs_the_modules_through_the_kernel_it_resolved(ext):
     fast = BiarmAgent(cfg, get_variant("biarm"), obs_dim=4, seed=0)
     slow_cfg = replace(cfg, network=NetworkConfig(**XAVIER, lateral_kernel="torch"))
     slow = BiarmAgent(slow_cfg, get_variant("biarm"), obs_dim=4, seed=0)
-    assert fast.modules is not None and fast.modules._kernel is ext
-    assert slow.modules is not None and slow.modules._kernel is None
+    assert fast.modules is not None and fast.modules.uses_kernel
+    assert slow.modules is not None and not slow.modules.uses_kernel
 
 
 def _td_agents(variant: str, ncol: int, learn_context: bool = True):
@@ -360,10 +360,10 @@ def test_cpp_td_update_equals_autograd(ext, variant, ncol, learn_context):
     including the context weights when trained) against autograd, then one whole update."""
     agents = _td_agents(variant, ncol, learn_context)
     fast, ref = agents["cpp"], agents["torch"]
-    assert fast._td_cpp is not None and ref._td_cpp is None
+    assert fast.fused_update and not ref.fused_update
     batch = _td_batch((2, 3, 3, 4)[ncol - 1])
-    loss_fast = fast._loss_cpp(batch)
-    loss_ref = ref._loss_autograd(batch)
+    loss_fast = fast.td_loss(batch)
+    loss_ref = ref.td_loss(batch)
     ref.flat.zero_grad()
     loss_ref.backward()
     torch.testing.assert_close(loss_fast, loss_ref.detach(), rtol=1e-6, atol=1e-7)
@@ -397,7 +397,7 @@ def test_td_update_kernel_is_not_used_where_autograd_is_needed(ext):
         agent = BiarmAgent(cfg, get_variant(variant), obs_dim=4, seed=0)
         agent.begin_task(2)
         agent.begin_task(3)
-        assert (agent._td_cpp is not None) is uses, variant
+        assert agent.fused_update is uses, variant
 
 
 def test_agent_observe_through_the_kernel_equals_the_numpy_step(ext):

@@ -49,8 +49,8 @@ def _pair(gated: bool, kernel: str) -> tuple[ProgressiveNet, ProgressiveNet]:
             else:
                 c.u2.mul_(s)
                 c.uq.mul_(s)
-    scaled._refresh_frozen()
-    plain._refresh_frozen()
+    scaled.refresh_frozen()
+    plain.refresh_frozen()
     return scaled, plain
 
 

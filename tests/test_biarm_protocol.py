@@ -161,11 +161,8 @@ def test_double_q_target_on_a_hand_built_batch(kernel, double_q):
         expected = float(huber(q, y, 1.0))
     # the two readings must really differ on this batch, or the test could not fail
     assert not torch.equal(q_on_next.argmax(1), q_tg_next.argmax(1))
-    if kernel == "cpp":
-        assert agent._td_cpp is not None
-        loss = float(agent._loss_cpp(batch))
-    else:
-        loss = float(agent._loss_autograd(batch).detach())
+    assert agent.fused_update is (kernel == "cpp")
+    loss = float(agent.td_loss(batch).detach())
     assert loss == pytest.approx(expected, rel=1e-5)
 
 

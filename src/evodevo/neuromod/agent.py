@@ -178,7 +178,7 @@ class BiarmAgent:
         base = self.dqn.lr
         if self.modules is None:
             return base
-        return effective_lr(base, self.modules._s.tolist(), self._lr_w)
+        return effective_lr(base, self.modules.state_array.tolist(), self._lr_w)
 
     def gate(self) -> float:
         """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
@@ -196,7 +196,7 @@ class BiarmAgent:
             return int(rng.integers(self.net.current.n_actions))
         net = self.net
         if isinstance(net, ProgressiveNet):  # NumPy forward: batch 1 is per-op overhead
-            st = self.modules._s if self.modules is not None else None
+            st = self.modules.state_array if self.modules is not None else None
             return int(net.q_np(self.obs_np, self.col, st).argmax())
         with torch.no_grad():
             return int(net.q(self.obs_t, self.col, self.states_t).argmax())
@@ -205,6 +205,17 @@ class BiarmAgent:
         """Module update for one environment step (Eq. 3.1-3.6); no-op for PNN."""
         if self._module_step is not None:
             self._module_step(obs, reward)
+
+    @property
+    def fused_update(self) -> bool:
+        """True when the TD loss and its gradients come from the C++ kernel (one call)."""
+        return self._td_cpp is not None
+
+    def td_loss(self, batch: Batch) -> torch.Tensor:
+        """The TD loss of the current column on ``batch`` (SPEC §1.6): from the C++ kernel,
+        which also writes every gradient into the flat buffer, when :attr:`fused_update`; else
+        from PyTorch, with its autograd graph (call ``backward``)."""
+        return self._loss_cpp(batch) if self._td_cpp is not None else self._loss_autograd(batch)
 
     def update(self, batch: Batch) -> torch.Tensor:
         """One DQN gradient step (SPEC §1.6) at the Eq. 3.7 learning rate; returns the loss."""
@@ -344,7 +355,7 @@ class BiarmAgent:
         for a, s in _column_scales(data):
             self.begin_task(a, s)
         self.net.load_state_dict(data["net"])
-        self.net._refresh_frozen()  # the fused caches of the frozen columns hold copies
+        self.net.refresh_frozen()  # the fused caches of the frozen columns hold copies
         if self.modules is not None:
             self.modules.load_state_dict(data["modules"])
             self.modules.load_extra_state(data["modules_extra"])

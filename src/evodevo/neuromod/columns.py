@@ -44,12 +44,12 @@ from evodevo.neuromod.kernels import resolve as resolve_kernel
 from evodevo.neuromod.modules import logistic
 from evodevo.seeding import torch_gen
 
-__all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals"]
+__all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals", "xavier"]
 
 _EMPTY = torch.empty(0)  # "no tensor" for the C++ calls (no module states; untrained ctx_w)
 
 
-def _xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:
+def xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:
     """Xavier-uniform tensor of ``shape`` with explicit (fan_in, fan_out)."""
     bound = (6.0 / (fan[0] + fan[1])) ** 0.5
     t = torch.empty(shape).uniform_(-bound, bound, generator=gen)
@@ -155,29 +155,29 @@ class Column(nn.Module):
         self.gated = gated
         self.r = r = adapter_dim
         self.kernel = kernel
-        self.w1 = _xavier((obs_dim, h), (obs_dim, h), gen)
+        self.w1 = xavier((obs_dim, h), (obs_dim, h), gen)
         self.b1 = nn.Parameter(torch.zeros(h))
-        self.w2 = _xavier((h, h), (h, h), gen)
+        self.w2 = xavier((h, h), (h, h), gen)
         self.b2 = nn.Parameter(torch.zeros(h))
-        self.wq = _xavier((h, a), (h, a), gen)
+        self.wq = xavier((h, a), (h, a), gen)
         self.bq = nn.Parameter(torch.zeros(a))
         if k > 0:
             if gated:
                 # [V | W_alpha] of every earlier column, stacked: blocks 0..k-1 read the earlier
                 # h1 (lateral into layer 2), blocks k..2k-1 the earlier h2 (into the head).
-                v = _xavier((2 * k, h, r), (h, r), gen)
-                wa = _xavier((2 * k, h, r), (h, r), gen)
+                v = xavier((2 * k, h, r), (h, r), gen)
+                wa = xavier((2 * k, h, r), (h, r), gen)
                 self.ad_w = nn.Parameter(torch.cat([v.data, wa.data], 2))
                 self.ad_b = nn.Parameter(torch.zeros(2 * k, 1, 2 * r))
-                self.u2 = _xavier((k * r, h), (k * r, h), gen)
-                self.uq = _xavier((k * r, a), (k * r, a), gen)
+                self.u2 = xavier((k * r, h), (k * r, h), gen)
+                self.uq = xavier((k * r, a), (k * r, a), gen)
                 self.ctx_w = nn.Parameter(
                     torch.tensor(list(context_weights), dtype=torch.float32),
                     requires_grad=learn_context,
                 )
             else:
-                self.u2 = _xavier((k * h, h), (k * h, h), gen)
-                self.uq = _xavier((k * h, a), (k * h, a), gen)
+                self.u2 = xavier((k * h, h), (k * h, h), gen)
+                self.uq = xavier((k * h, a), (k * h, a), gen)
             if lateral_init == "zero":
                 # drawn and then zeroed, so every other parameter is the same as under xavier:
                 # the new column starts as an isolated one (its Q-values near 0, not the earlier
@@ -325,7 +325,7 @@ class ProgressiveNet(nn.Module):
         for col in self.columns:
             for p in col.parameters():
                 p.requires_grad_(False)
-        self._refresh_frozen()
+        self.refresh_frozen()
         col = Column(
             n_prev=self.n_columns,
             obs_dim=self.obs_dim,
@@ -343,7 +343,7 @@ class ProgressiveNet(nn.Module):
         self.columns.append(col)
         return col
 
-    def _refresh_frozen(self) -> None:
+    def refresh_frozen(self) -> None:
         """Cache the fused first layers, adapters and context weights of the frozen columns."""
         self._np = {}
         cols = [c for c in self.columns if isinstance(c, Column)]
@@ -602,7 +602,7 @@ class ProgressiveNet(nn.Module):
         """Freeze every column (after the last task) and refresh the fused caches."""
         for p in self.columns.parameters():
             p.requires_grad_(False)
-        self._refresh_frozen()
+        self.refresh_frozen()
 
 
 def huber(pred: torch.Tensor, target: torch.Tensor, delta: float) -> torch.Tensor:

@@ -291,6 +291,23 @@ class Neuromodulators(nn.Module):
 
     # ----------------------------------------------------------------- public views
     @property
+    def uses_kernel(self) -> bool:
+        """True when :meth:`step` runs through the compiled ``module_step``."""
+        return self._kernel is not None
+
+    @property
+    def state_array(self) -> np.ndarray:
+        """The live float32 array of the four states in the internal layout (DA, NE, 5HT, ACh:
+        the dependency order of Eq. 3.2-3.6), which the fused kernels read; use :attr:`states`
+        for the MODULE_NAMES order."""
+        return self._s
+
+    @property
+    def taus_internal(self) -> list[float]:
+        """The EMA rates of Eq. 3.1 in the internal layout (an ablated module's is 0)."""
+        return list(self._tau_py)
+
+    @property
     def states(self) -> np.ndarray:
         """Copy of the four states in MODULE_NAMES order (DA, 5HT, NE, ACh)."""
         return self._s[_TO_INTERNAL].copy()

@@ -31,7 +31,7 @@ from collections.abc import Iterator
 import torch
 from torch import nn
 
-from evodevo.neuromod.columns import _xavier
+from evodevo.neuromod.columns import xavier
 from evodevo.seeding import torch_gen
 
 __all__ = ["SharedBody", "TaskHead", "HeadView", "SharedNet"]
@@ -42,9 +42,9 @@ class SharedBody(nn.Module):
 
     def __init__(self, obs_dim: int, hidden: int, gen: torch.Generator) -> None:
         super().__init__()
-        self.w1 = _xavier((obs_dim, hidden), (obs_dim, hidden), gen)
+        self.w1 = xavier((obs_dim, hidden), (obs_dim, hidden), gen)
         self.b1 = nn.Parameter(torch.zeros(hidden))
-        self.w2 = _xavier((hidden, hidden), (hidden, hidden), gen)
+        self.w2 = xavier((hidden, hidden), (hidden, hidden), gen)
         self.b2 = nn.Parameter(torch.zeros(hidden))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -58,7 +58,7 @@ class TaskHead(nn.Module):
     def __init__(self, hidden: int, n_actions: int, gen: torch.Generator) -> None:
         super().__init__()
         self.n_actions = n_actions
-        self.wq = _xavier((hidden, n_actions), (hidden, n_actions), gen)
+        self.wq = xavier((hidden, n_actions), (hidden, n_actions), gen)
         self.bq = nn.Parameter(torch.zeros(n_actions))
 
     def forward(self, h: torch.Tensor) -> torch.Tensor:
@@ -145,7 +145,7 @@ class SharedNet(nn.Module):
             p.requires_grad_(False)
         return target
 
-    def _refresh_frozen(self) -> None:
+    def refresh_frozen(self) -> None:
         """Nothing is cached (interface of :class:`ProgressiveNet`)."""
 
     def freeze_all(self) -> None:
