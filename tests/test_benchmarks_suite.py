@@ -1,4 +1,4 @@
-"""Issue 7: ``python -m benchmarks --quick`` runs every benchmark in under two minutes and prints
+"""``python -m benchmarks --quick`` runs every benchmark in under two minutes and prints
 one JSON object of ratios measured in that run.
 
 The default run checks every benchmark's ratios except ``scaling`` (~half of the suite's time;
@@ -51,10 +51,15 @@ def _check_ratios(res: dict[str, Any]) -> None:
     assert floor["CartPole-v1"]["flops"] == 1.0  # the first column has no laterals: the same net
     assert floor["CartPole-v1"]["params"] == 1.0
     assert all(floor[t]["flops"] > 1.0 and floor[t]["params"] > 1.0 for t in list(floor)[1:])
-    assert res["dqn_throughput"]["ratio"] > 0
+    # our DQN step against SB3's, measured interleaved in one run: 1.4-2.8x on this machine
+    assert res["dqn_throughput"]["ratio"] > 1.0
     assert 0.0 < res["grn_step"]["controller_share"] < 1.0
-    evo = res["evolution_speed"]  # cached / uncached episodes per CPU-second (issue 24)
+    evo = res["evolution_speed"]  # cached / uncached episodes per CPU-second
     assert evo["ratio_generation"] > 0 and evo["ratio_test"] > 0
+    # the settled-scene cache changes the cost, never the outcome of an episode
+    for arm, same in evo["generation"]["same_success_as_uncached"].items():
+        done, total = map(int, same.split("/"))
+        assert done == total, (arm, same)
     env = res["env_speed"]
     assert env["ratio"] is None and "make orig-venv" in env["note"] or env["ratio"] > 0
 
@@ -66,7 +71,7 @@ def test_every_benchmark_but_scaling_gives_its_ratios_in_one_json_object():
     names = [n for n in SUITE if n != "scaling"]
     res, _, _ = _suite("--only", ",".join(names))
     assert list(res) == names
-    assert all(res[n]["measures"] == SUITE[n] and res[n]["seconds"] >= 0 for n in names)
+    assert all(res[n]["measures"] == SUITE[n] and res[n]["seconds"] > 0 for n in names)
     _check_ratios(res)
 
 
