@@ -121,7 +121,9 @@ def test_rows_pool_seeds_with_wilson_and_compute_efficiency_and_time_to_target(r
     assert [r.seed for r in per_run] == [0, 1, 0, 0]
     md = markdown(table, per_run, 0.5)
     assert "| grn | 2 (0,1) | last (last generation's best) | 55.0 % [" in md and "(44/80)" in md
-    assert "| 7.0 min | 13500 | 0 | 7.86 | 3.0 min (2/2) | 80 | 57.5 % | 6.5 min | 8.85 | 40 |" in md
+    assert (
+        "| 7.0 min | 13500 | 0 | 7.86 | 3.0 min (2/2) | 80 | 57.5 % | 6.5 min | 8.85 | 40 |" in md
+    )
     assert "| zero | 1 (0) | untrained | 45.0 % [" in md
     assert "| 0.0 min | 0 | 0 | — | — (0/1) | 40 | — |" in md
     assert "test seed 10000 (validation range)" in md
