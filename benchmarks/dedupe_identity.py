@@ -1,4 +1,4 @@
-"""Kuka: one evaluator call with ``evaluation.dedupe`` gives what it gives without (issue 24).
+"""Kuka: one evaluator call with ``evaluation.dedupe`` gives what it gives without.
 
 A population of the evolved genome of ``docs/results/thesis/grn/plain_s1``, a mutant of it and
 three copies (2 distinct genomes in 5) is scored on the common training episodes of

@@ -1,9 +1,9 @@
-"""Kuka episodes per CPU-second, the port before issue 24 against its speed-ups (SPEC §2.4-2.5).
+"""Kuka episodes per CPU-second, the port before its speed-ups (scene cache, skipped lift) against them (SPEC §2.4-2.5).
 
 Two workloads of the thesis protocol, each run by the GRN evaluator in this process (one
 worker, lockstep 4, as ``evodevo grn evolve``/``evaluate`` run them), in several arms:
 
-* ``uncached``: the port before issue 24, ``scene_cache=False`` (every reset drops and settles
+* ``uncached``: the port before the speed-ups, ``scene_cache=False`` (every reset drops and settles
   its objects) and ``skip_empty_lift=False`` (every grasp lifts for all 500 steps) — "today",
   the baseline of every ratio;
 * ``cached``: a fresh, empty settled-scene cache per arm (the first reset of a drop settles it,
@@ -213,7 +213,7 @@ def run(
 
 
 #: Arms: name -> (settled-scene cache, skipped lift, dedupe). ``uncached`` is the port before
-#: issue 24 (every reset settles its drop, every grasp lifts fully): the baseline of every ratio.
+#: the port before the speed-ups (every reset settles its drop, every grasp lifts fully): the baseline of every ratio.
 ARM_SETTINGS = {
     "uncached": (False, False, False),
     "cached": (True, False, False),

@@ -1,4 +1,4 @@
-"""Outcomes with and without the skipped lift of KukaDiverseObject-v0 (issue 24 item 4; SPEC §3).
+"""Outcomes with and without the skipped lift of KukaDiverseObject-v0 (SPEC §3).
 
 For every (seed, policy) the episode runs twice, both with the settled-scene cache (warmed
 before timing, so both arms place the same scene): once with ``skip_empty_lift=True`` (the

@@ -1,4 +1,4 @@
-"""Evolution scaling (issue 5): GRN evolution wall time with 1 and 2 worker processes and with
+"""Evolution scaling: GRN evolution wall time with 1 and 2 worker processes and with
 2 Ray actors, on the same seed, as speed-up ratios measured in one run.
 
     python benchmarks/scaling.py --json [--quick]

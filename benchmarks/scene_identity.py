@@ -1,4 +1,4 @@
-"""Identity of cached and uncached Kuka resets over many episodes and policies (issue 24; SPEC §3).
+"""Identity of cached and uncached Kuka resets over many episodes and policies (SPEC §3).
 
 For every (seed, policy) the episode runs twice with the settled-scene cache: once as a miss
 (the cache is emptied first, so the reset drops and settles the objects) and once as a hit

@@ -1,4 +1,4 @@
-"""Issue 23 item 6: every bad input gives one clear line and a non-zero exit, before any work,
+"""every bad input gives one clear line and a non-zero exit, before any work,
 and leaves no run directory; pool workers exit when their parent is killed."""
 
 from __future__ import annotations

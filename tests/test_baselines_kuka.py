@@ -166,7 +166,7 @@ def test_neat_baseline_one_generation_and_evaluation(tmp_path, tiny):
 
 
 def test_ppo_on_the_blob_front_end_reads_4_features_and_is_evaluable(tmp_path, tiny):
-    """Issue 22 item 5: ``ppo.encoder: blob`` trains an MLP policy on the blob features (the
+    """``ppo.encoder: blob`` trains an MLP policy on the blob features (the
     wrapper encodes every frame as the GRN evaluator does) and the evaluator runs it on them."""
     import numpy as np
 
@@ -206,7 +206,7 @@ def test_ppo_on_the_blob_front_end_reads_4_features_and_is_evaluable(tmp_path, t
 
 
 def test_neat_on_the_blob_front_end_with_the_shaped_fitness(tmp_path, tiny):
-    """Issue 22 item 5: NEAT reads the vision preset's 4 blob features (``neat.encoder: blob``)
+    """NEAT reads the vision preset's 4 blob features (``neat.encoder: blob``)
     and is selected with the GRN's shaped term; the run saves and reloads that front-end."""
     cfg = tmp_path / "blob.yaml"
     cfg.write_text(

@@ -1,4 +1,4 @@
-"""Issue 5: the Kuka baselines' evaluators on Ray (`--backend ray`) give the local numbers."""
+"""the Kuka baselines' evaluators on Ray (`--backend ray`) give the local numbers."""
 
 from __future__ import annotations
 

@@ -77,7 +77,10 @@ def test_train_writes_every_file(tmp_path, tiny_cfg):
     )
     nm = run.read_csv("neuromod.csv")
     assert {"step", "task", "s_DA", "s_5HT", "s_NE", "s_ACh", "n_task", "lr", "gate"} <= set(nm[0])
-    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["task0.safetensors", "task1.safetensors"]
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
+        "task0.safetensors",
+        "task1.safetensors",
+    ]
     # a second train into the same folder needs --resume; with it, nothing is retrained
     _fails(
         ["train", "--config", str(tiny_cfg), "--seed", "1", "--out", str(out)],

@@ -1,4 +1,4 @@
-"""Issue 5: the BIARM comparison grid on Ray gives the local numbers; finished runs are skipped
+"""the BIARM comparison grid on Ray gives the local numbers; finished runs are skipped
 and partly finished ones resume from their checkpoint."""
 
 from __future__ import annotations

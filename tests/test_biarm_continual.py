@@ -1,4 +1,4 @@
-"""Continual-learning baselines of BIARM (issue 4): finetune, ewc, sb3-dqn, and `compare biarm`."""
+"""Continual-learning baselines of BIARM: finetune, ewc, sb3-dqn, and `compare biarm`."""
 
 from __future__ import annotations
 

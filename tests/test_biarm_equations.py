@@ -192,7 +192,7 @@ def test_retention_bounds(initial, final):
 
 
 def test_eq_3_7_relative_to_rest_gives_eta_base_at_rest():
-    """``modules.lr_relative``: Eq. 3.7 divided by its resting value (issue 21): eta_base when
+    """``modules.lr_relative``: Eq. 3.7 divided by its resting value: eta_base when
     every module rests at ``initial_state``, scaled by the same state-dependent factor as Eq.
     3.7 otherwise; Eq. 3.7 as written gives eta_base / 2 at rest. PNN ignores both."""
     from evodevo.config import from_dict

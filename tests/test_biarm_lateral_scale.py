@@ -1,4 +1,4 @@
-"""``network.lateral_scale`` (SPEC §1.2; issue 21): a column's laterals read ``s h_k``.
+"""``network.lateral_scale`` (SPEC §1.2): a column's laterals read ``s h_k``.
 
 A column built with scale ``s`` computes what a scale-1 column computes with its lateral
 weights (PNN: ``U``; BIARM: the adapters' ``[V | W_alpha]``) multiplied by ``s``, in every path

@@ -1,4 +1,4 @@
-"""The DQN protocol details Table 3.1 leaves open (SPEC §1.6; issue 21): ε unit, target
+"""The DQN protocol details Table 3.1 leaves open (SPEC §1.6): ε unit, target
 update, double Q, which network a task keeps, the v1 preset and the sweep."""
 
 from __future__ import annotations
@@ -322,7 +322,7 @@ def _strip(obj: Any) -> Any:
 
 @pytest.mark.parametrize("variant", ["pnn", "biarm"])
 def test_v1_preset_reproduces_the_first_protocol_bit_for_bit(tmp_path, variant):
-    """``tests/data/v1_summary_{variant}.json`` was written by the code before issue 21 (commit
+    """``tests/data/v1_summary_{variant}.json`` was written by the code before the DQN protocols existed (commit
     0018ec7) for this tiny run; the v1 preset must give the same summary, float for float."""
     data: dict[str, Any] = {
         "tasks": [

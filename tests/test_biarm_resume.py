@@ -1,4 +1,4 @@
-"""Issue 5: BIARM mid-task checkpoints, resume after a kill, SIGTERM, bad checkpoint files."""
+"""BIARM mid-task checkpoints, resume after a kill, SIGTERM, bad checkpoint files."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 23 item 5: the CLI's surface -- defaults visible in plain-text help, ``--version``, one
+"""the CLI's surface -- defaults visible in plain-text help, ``--version``, one
 meaning per option name, old names kept as deprecated aliases."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Property test (issue 5): random malformed configs give a ConfigError, never a traceback."""
+"""Property test: random malformed configs give a ConfigError, never a traceback."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 23 item 11: dependencies point down. The BIARM method does not import its baselines (an
+"""dependencies point down. The BIARM method does not import its baselines (an
 architecture it does not train is looked up in :mod:`evodevo.trainers`), and no library module
 imports the command line (``parse_seeds`` lives in :mod:`evodevo.seeding`)."""
 

@@ -1,4 +1,4 @@
-"""Issue 7: every example of docs/extending.md runs as written (tiny budgets, fast envs only).
+"""every example of docs/extending.md runs as written (tiny budgets, fast envs only).
 
 The fenced blocks are taken in document order and run in one empty folder with a ``configs/``
 link to the repository's: a block whose first line is ``# file: NAME`` is written to ``NAME``;

@@ -1,4 +1,4 @@
-"""Issue 24: identical genomes of a generation are evaluated once (``evaluation.dedupe``).
+"""identical genomes of a generation are evaluated once (``evaluation.dedupe``).
 
 Every genome of a generation plays the same episodes with the same noise seeds, so a clone
 scores what its twin scores: a run with dedupe must give the same history and best genome as

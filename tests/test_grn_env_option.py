@@ -1,4 +1,4 @@
-"""Issue 23 item 8: `grn evolve --env ID` drives any Gymnasium env with a Box observation and Box
+"""`grn evolve --env ID` drives any Gymnasium env with a Box observation and Box
 actions, its sizes read from the spaces (no hand-edited config); the run evaluates and acts."""
 
 from __future__ import annotations

@@ -228,7 +228,7 @@ def test_encoder_is_deterministic_saved_and_reloaded(tmp_path):
 
 
 def test_evolution_on_ray_equals_the_process_pool(tmp_path):
-    """Issue 5: the same seed gives the same history on 1 worker, 2 processes and 2 Ray actors."""
+    """the same seed gives the same history on 1 worker, 2 processes and 2 Ray actors."""
     import pytest
 
     pytest.importorskip("ray")

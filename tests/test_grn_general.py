@@ -1,4 +1,4 @@
-"""Both GRN controllers on any Box-observation / Box-action Gymnasium env (SPEC §5, issue 6).
+"""Both GRN controllers on any Box-observation / Box-action Gymnasium env (SPEC §5).
 
 For a vector observation the encoder is skipped and the observation, its bounds mapped onto
 ``sensors.vector_range``, is the sensor vector. Checked on Pendulum-v1 (and the CLI on it).

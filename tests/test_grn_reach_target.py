@@ -1,4 +1,4 @@
-"""Issue 22: the shaped training fitness' reach to the target the front-end saw (SPEC §2.4).
+"""the shaped training fitness' reach to the target the front-end saw (SPEC §2.4).
 
 ``evaluation.distance_to: target`` measures the gripper's distance to the table point the blob
 front-end localised on the first frame (the robot's own estimate and pose, no simulator object

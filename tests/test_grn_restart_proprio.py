@@ -1,4 +1,4 @@
-"""The reaching-map options of the vision preset (issue 22): ``dynamics.restart`` and
+"""The reaching-map options of the vision preset: ``dynamics.restart`` and
 ``sensors.proprio`` (SPEC §2.1, §2.2), for the plain and the neuromodulated GRN."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 5: a run killed with SIGKILL mid-generation and resumed ends as an uninterrupted run.
+"""a run killed with SIGKILL mid-generation and resumed ends as an uninterrupted run.
 
 SIGKILL cannot be caught, so nothing is flushed or checkpointed at the kill: what survives is the
 last generation's atomic checkpoint (``checkpoints/checkpoint.npz``). The victim is killed while

@@ -1,4 +1,4 @@
-"""Issue 5: SIGTERM stops an evolution after a checkpointed generation; --resume ends identically."""
+"""SIGTERM stops an evolution after a checkpointed generation; --resume ends identically."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 22: the blob front-end, substeps, front-end records in genomes, the vision preset."""
+"""the blob front-end, substeps, front-end records in genomes, the vision preset."""
 
 from __future__ import annotations
 

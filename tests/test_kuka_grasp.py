@@ -1,4 +1,4 @@
-"""The automatic grasp's skipped lift of KukaDiverseObject-v0 (issue 24 item 4; SPEC §3).
+"""The automatic grasp's skipped lift of KukaDiverseObject-v0 (SPEC §3).
 
 ``skip_empty_lift`` may stop the lift early only when that cannot change the outcome: with a
 fixed seed and actions, on and off give the same reward, ``terminated`` and ``is_success``; a

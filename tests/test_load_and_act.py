@@ -1,4 +1,4 @@
-"""Issue 23 item 1: ``evodevo.load(run)`` → ``reset`` → ``predict`` for every trained object, acting
+"""``evodevo.load(run)`` → ``reset`` → ``predict`` for every trained object, acting
 exactly as the evaluators do; the README's snippet runs as written."""
 
 from __future__ import annotations

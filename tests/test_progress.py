@@ -1,4 +1,4 @@
-"""Issue 23 item 2: long commands show a progress bar with an ETA on stderr (none with --quiet);
+"""long commands show a progress bar with an ETA on stderr (none with --quiet);
 stdout (e.g. --json) is unchanged."""
 
 from __future__ import annotations

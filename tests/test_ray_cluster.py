@@ -1,4 +1,4 @@
-"""Issue 23 item 9: the README's cluster recipe against a head started with `ray start` (token
+"""the README's cluster recipe against a head started with `ray start` (token
 authentication on, Ray's default): `--address` joins it with the head's token, and the results
 equal the local pool's."""
 

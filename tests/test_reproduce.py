@@ -528,7 +528,7 @@ def test_plan_lists_steps_and_runs_nothing(tmp_path, capsys):
 
 
 def test_header_says_what_ran_this_time():
-    """Issue 23: a report rewritten from saved runs said "0.0 min for the steps run this time"."""
+    """a report rewritten from saved runs said "0.0 min for the steps run this time"."""
     from evodevo.reproduce.report import _this_time
 
     assert (

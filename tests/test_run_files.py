@@ -1,4 +1,4 @@
-"""Issue 23 item 10: run files get the mode an ordinary write gives (0666 minus the umask), so a
+"""run files get the mode an ordinary write gives (0666 minus the umask), so a
 group can read runs on shared storage; atomic writes used to leave them 0600."""
 
 from __future__ import annotations

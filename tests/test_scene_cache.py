@@ -1,4 +1,4 @@
-"""The settled-scene cache of KukaDiverseObject-v0 (issue 24; SPEC §2.4-2.5, §3).
+"""The settled-scene cache of KukaDiverseObject-v0 (SPEC §2.4-2.5, §3).
 
 A cached reset (hit) must give the same episode, bit for bit, as the reset that simulated the
 drop (miss); the key must change with every setting of the drop; the memory bound must hold;

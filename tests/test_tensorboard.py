@@ -1,4 +1,4 @@
-"""Issue 23 item 4: TensorBoard as an optional sink beside the CSVs (``--tensorboard DIR``): the
+"""TensorBoard as an optional sink beside the CSVs (``--tensorboard DIR``): the
 scalars equal the CSV rows."""
 
 from __future__ import annotations

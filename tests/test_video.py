@@ -1,4 +1,4 @@
-"""Issue 23 item 3: `grn video` and `biarm video` write GIFs at the asked frame rate, with the step,
+"""`grn video` and `biarm video` write GIFs at the asked frame rate, with the step,
 action and outcome drawn on the frames."""
 
 from __future__ import annotations
