@@ -70,7 +70,14 @@ g1() {
   done
 }
 
-for e in "${@:-E1 E3A G1 E2}"; do
+e4() {  # learned module networks beside E1's fixed ones
+  local src; src=$(code_at "$E4_COMMIT")
+  for s in 0-1 2-3 4-5 6-7; do
+    compare "$src" --variants biarm --set modules.learning=learned --seeds "$s" --out "$out/default_learned"
+  done
+}
+
+for e in "${@:-E1 E3A G1 E2 E4}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
