@@ -71,7 +71,7 @@ g1() {
 }
 
 e4() {  # learned module networks beside E1's fixed ones
-  local src; src=$(code_at "$E4_COMMIT")
+  local src; src=$(code_at 7dac07f)
   for s in 0-1 2-3 4-5 6-7; do
     compare "$src" --variants biarm --set modules.learning=learned --seeds "$s" --out "$out/default_learned"
   done
