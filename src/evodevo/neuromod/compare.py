@@ -27,6 +27,7 @@ import numpy as np
 from evodevo.config import from_dict
 from evodevo.errors import EvodevoError
 from evodevo.evidence.aggregate import DEFAULT_REPS
+from evodevo.neuromod.aggregate_table import AGGREGATE_TITLE, PROFILE_FIGURE, aggregate_markdown
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.continual_metrics import RunMetrics, grid_metrics
 from evodevo.neuromod.continual_table import ContinualTable, continual_runs_csv, continual_table
@@ -223,7 +224,8 @@ def continual_markdown(out: str | Path, reps: int = DEFAULT_REPS) -> str:
 
 
 def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS) -> Path:
-    """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_cl_metrics.md/.csv``
+    """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_aggregates.md`` (IQM,
+    probability of improvement, performance profiles), ``table_cl_metrics.md/.csv``
     (with ``table_cl_paired.csv`` and ``table_cl_runs.csv``), ``report.md`` and (optionally)
     the figures into ``out``.
 
@@ -241,6 +243,9 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
         text = continual_csv(runs) if name == "table_continual" else csv_text(header, rows)
         atomic_write_text(root / f"{name}.csv", text)
         parts.append(f"## {title}\n\n{body}")
+    agg = aggregate_markdown(runs, root / PROFILE_FIGURE if figures else None, reps=reps)
+    atomic_write_text(root / "table_aggregates.md", f"## {AGGREGATE_TITLE}\n\n{agg}\n{budget}\n")
+    parts.append(f"## {AGGREGATE_TITLE}\n\n{agg}")
     try:
         metrics, cl = _continual(root, reps)
     except EvodevoError as exc:

@@ -17,6 +17,7 @@ from evodevo.grn.ablation_pooling import (
     pooled_ablations_markdown,
     read_ablation_tables,
 )
+from evodevo.neuromod.aggregate_table import AGGREGATE_TITLE, aggregate_markdown
 from evodevo.neuromod.compare import CL_TITLE, collect, continual_markdown
 from evodevo.neuromod.table_format import format_seeds, table_markdown
 from evodevo.neuromod.tables import STATS_NOTE, report_tables, run_facts, seeds_sentence
@@ -170,6 +171,7 @@ def _biarm_grid(
         ]
     for _name, title, caption, header, rows in report_tables(dict(runs)):
         lines += [f"#### {title}", "", table_markdown(caption, header, rows).strip(), ""]
+    lines += [f"#### {AGGREGATE_TITLE}", "", aggregate_markdown(runs).strip(), ""]
     lines += [f"#### {CL_TITLE}", "", continual_markdown(bdir).strip(), ""]
     lines += ["#### Where we differ and why", ""]
     lines += biarm_differences(runs, b.episodes_scale)
