@@ -195,7 +195,9 @@ def test_the_memory_yaml_is_the_vision_preset_in_the_dark_with_carried_expressio
         {
             **vision_preset(),
             "dynamics": {**vision_preset()["dynamics"], "restart": False},
-            "env": {"kwargs": {"max_steps": 8, "dark_after": 1}},
+            "env": {
+                "kwargs": {"max_steps": 8, "num_objects": 1, "lateral_dv": 0.02, "dark_after": 1}
+            },
         },
     )
     assert load_config(GrnConfig, MEMORY_YAML) == want
@@ -232,7 +234,12 @@ def test_grn_evolve_in_the_dark_through_the_cli(tmp_path):
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     saved = json.loads((out / "config.json").read_text())["config"]
-    assert saved["env"]["kwargs"] == {"max_steps": 8, "dark_after": 2}
+    assert saved["env"]["kwargs"] == {
+        "max_steps": 8,
+        "num_objects": 1,
+        "lateral_dv": 0.02,
+        "dark_after": 2,
+    }
     assert saved["dynamics"]["restart"] is False and saved["sensors"]["encoder"] == "blob"
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+import yaml
 from test_safe_loading import _forbid_unpickling, _refused, _sb3_zip
 from typer.testing import CliRunner
 
@@ -47,7 +48,7 @@ recurrent_ppo:
 evaluation:
   lockstep: 2
 env:
-  kwargs: {{max_steps: 8, dark_after: 1}}
+  kwargs: {{max_steps: 8, num_objects: 1, lateral_dv: 0.02, dark_after: 1}}
 """
 
 
@@ -185,7 +186,9 @@ def test_a_recurrent_model_naming_a_class_outside_the_allowlist_is_refused(train
         load_sb3_policy("recurrent_ppo", path)
 
 
-def test_the_memory_baseline_config_is_recurrent_ppo_on_the_dark_features():
+def test_the_memory_baseline_config_is_the_grns_memory_task():
     cfg = load_config(KukaBaselineConfig, MEMORY_YAML, {"method": "recurrent_ppo"})
+    grn = yaml.safe_load((ROOT / "configs" / "grn_memory.yaml").read_text())
+    assert cfg.env.kwargs == grn["env"]["kwargs"]  # the same task as the GRN arms
     assert cfg.env.kwargs["dark_after"] == 1 and cfg.ppo.encoder == "blob"
     assert cfg.evaluator_config().sensors.encoder == "blob"
