@@ -54,6 +54,7 @@ __all__ = [
     "DISTANCE_TO",
     "KEEP",
     "OPTIMIZERS",
+    "FRONTEND_FEATURES",
     "GENOME_BLOCKS",
     "PARAMETER_BLOCKS",
     "WEIGHT_BLOCKS",
@@ -98,6 +99,11 @@ class DynamicsConfig:
         _check_range("substeps", self.substeps, 1)
 
 
+#: Features per frame of each visual front-end (``sensors.encoder``; SPEC §2.2): the thesis'
+#: CNN (32 channels x 2 x 2) and the blob localiser (dx, dy, size, found).
+FRONTEND_FEATURES: dict[str, int] = {"cnn": 128, "blob": 4}
+
+
 @dataclass
 class SensorConfig:
     """The sensor vector s = [visual(4), proprio(4)] (SPEC §2.2)."""
@@ -128,9 +134,12 @@ class SensorConfig:
         _check_range("n_visual", self.n_visual, 0)
         _check_range("n_proprio", self.n_proprio, 0)
         _check_bounds("vector_range", self.vector_range)
-        from evodevo.grn.frontends import frontend_dim
-
-        want = frontend_dim(self.encoder)
+        if self.encoder not in FRONTEND_FEATURES:
+            raise ConfigError(
+                f"sensors.encoder={self.encoder!r} is not a front-end; choose one of "
+                f"{tuple(FRONTEND_FEATURES)}"
+            )
+        want = FRONTEND_FEATURES[self.encoder]
         if self.feature_dim != want:
             raise ConfigError(
                 f"feature_dim={self.feature_dim} must be {want} for sensors.encoder="
@@ -547,14 +556,8 @@ class GrnConfig:
     def validate(self) -> None:
         if not self.controller:
             raise ConfigError("controller must name a controller kind, e.g. plain")
-        if ":" not in self.controller:
-            from evodevo.grn.controller import controller_names
-
-            if self.controller not in controller_names():
-                raise ConfigError(
-                    f"controller={self.controller!r} is not known; choose one of "
-                    f"{controller_names()} or give 'module:attr'"
-                )
+        # the name itself is checked against the registered kinds where controllers are made
+        # (evodevo.grn.controller.check_controller), before any work starts
         if self.genome.p_init == "identity" and self.sensors.feature_dim != self.sensors.n_visual:
             raise ConfigError(
                 f"genome.p_init=identity needs sensors.feature_dim ({self.sensors.feature_dim}) "

@@ -30,7 +30,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.config import GENOME_BLOCKS
 from evodevo.grn.dynamics import expression_step, motor_output
 from evodevo.grn.encoder import sensor_vector
@@ -48,6 +48,7 @@ __all__ = [
     "TurnPolicy",
     "BASELINES",
     "register_controller",
+    "check_controller",
     "controller_names",
     "make_controller",
 ]
@@ -411,6 +412,17 @@ def register_controller(name: str, factory: Callable[..., Any] | str) -> None:
 def controller_names() -> list[str]:
     """Registered controller names."""
     return sorted(_REGISTRY)
+
+
+def check_controller(config: Any) -> None:
+    """Refuse a ``config.controller`` that is neither a registered kind nor ``"module:attr"``,
+    with one error naming it (before any work starts)."""
+    name = config.controller
+    if ":" not in name and name not in _REGISTRY:
+        raise ConfigError(
+            f"controller={name!r} is not known; choose one of {controller_names()} or give "
+            "'module:attr'"
+        )
 
 
 def _resolve(target: Callable[..., Any] | str) -> Callable[..., Any]:

@@ -625,8 +625,9 @@ def evolve_run(
         backend: "local" (process pool) or "ray" (Ray actors); results are the same.
         address: Ray cluster address ("auto" or HOST:PORT); None starts a local Ray.
     """
-    from evodevo.grn.controller import make_controller
+    from evodevo.grn.controller import check_controller, make_controller
 
+    check_controller(config)
     run = RunDir(out)
     ckpt = run.path / "checkpoints" / CHECKPOINT_FILE
     cfg_dict = to_dict(config)

@@ -49,7 +49,11 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
+from evodevo.grn.config import FRONTEND_FEATURES
+from evodevo.grn.encoder import Encoder
+from evodevo.grn.env_interface import make_env
 from evodevo.runs import atomic_write_bytes
+from evodevo.seeding import derive
 
 __all__ = [
     "FRONTENDS",
@@ -66,7 +70,7 @@ __all__ = [
     "SIZE_UNIT",
 ]
 
-FRONTENDS = ("cnn", "blob")
+FRONTENDS = tuple(FRONTEND_FEATURES)
 """Names accepted by ``sensors.encoder``."""
 FRONTEND_FILE = "frontend.npz"
 """The blob localiser's calibration (background and camera matrices) in a run directory."""
@@ -308,8 +312,6 @@ class BlobLocaliser:
         episodes: int = BACKGROUND_EPISODES,
     ) -> BlobLocaliser:
         """Photograph the empty tray: the per-pixel median of ``episodes`` first frames."""
-        from evodevo.grn.evaluator import make_env
-        from evodevo.seeding import derive
 
         env = make_env(env_id, env_kwargs)
         try:
@@ -342,15 +344,13 @@ def check_features(features: np.ndarray, name: str) -> np.ndarray:
 
 def frontend_dim(name: str) -> int:
     """Features per frame of front-end ``name`` (what P projects to ``n_visual``)."""
-    dims = {"cnn": 128, "blob": 4}
-    if name not in dims:
+    if name not in FRONTEND_FEATURES:
         raise ConfigError(f"sensors.encoder={name!r} is not a front-end; choose one of {FRONTENDS}")
-    return dims[name]
+    return FRONTEND_FEATURES[name]
 
 
 def make_frontend(config: Any, seed: int | None = None) -> Any:
     """A new front-end for ``config.sensors.encoder`` (the CNN is drawn from ``seed``)."""
-    from evodevo.grn.encoder import Encoder
 
     name = config.sensors.encoder
     frontend_dim(name)
@@ -369,7 +369,6 @@ def save_frontend(frontend: Any, run: Any) -> None:
 
 def load_frontend(config: Any, run: Any) -> Any:
     """The front-end saved in run directory ``run`` for ``config.sensors.encoder``."""
-    from evodevo.grn.encoder import Encoder
 
     name = config.sensors.encoder
     frontend_dim(name)
