@@ -12,6 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from evodevo.errors import EvodevoError
+from evodevo.evidence.normalise import SUCCESS_RATE_MARGIN
+from evodevo.evidence.verdict import compare, holm_table, to_markdown
 from evodevo.grn.ablation_pooling import (
     pool_ablations,
     pooled_ablations_markdown,
@@ -33,6 +35,9 @@ from evodevo.runs import atomic_write_text, machine_info
 from evodevo.seed_split import range_label
 from evodevo.seeding import parse_seeds
 from evodevo.stats import fisher_exact, mcnemar_exact_counts, rate
+
+#: The equivalence margin of a success rate (SPEC §6), in points.
+SUCCESS_DELTA_POINTS = 100 * SUCCESS_RATE_MARGIN
 
 __all__ = [
     "write_report",
@@ -371,6 +376,7 @@ def _controls_block(
         *ctrl_rows,
         "",
     ]
+    lines += _run_level_block(gdir, g, grn, specs, triv_base)
     for title, d, p, mcn in diffs:
         if mcn:  # paired on the same episodes: the verdict is per GRN seed (exact McNemar)
             sig = sum(pm < 0.05 for _, pm in mcn)
@@ -386,6 +392,65 @@ def _controls_block(
             f"(Fisher p = {p:.3g})."
         )
     return lines + [""]
+
+
+def _test_rate(t: dict[str, Any]) -> float:
+    """The clean test success of a captured evaluation (its noisy run carries it as "clean")."""
+    c = t.get("clean", t)
+    return float(c["successes"]) / float(c.get("n", t["episodes"]))
+
+
+def _run_level_block(
+    gdir: Path,
+    g: GrnBudget,
+    grn: str,
+    specs: list[tuple[str, str]],
+    trivial: dict[str, Any],
+) -> list[str]:
+    """GRN − each control with the evolution as the unit (SPEC §6): per GRN seed its clean test
+    success minus the control's (the evolved control of the same seed; an untrained policy's
+    one number), an exact sign-flip test over seeds, Holm over the table, and a verdict
+    against δ = 5 points."""
+    grn_rates = {
+        s: 100 * _test_rate(t)
+        for s in parse_seeds(g.seeds)
+        if (t := load_json(gdir / f"{grn}_s{s}" / "repro_test_noisy.json")) is not None
+    }
+    if len(grn_rates) < 2:
+        return []
+    comps = []
+    for label, title in specs:
+        ctrl = {
+            s: 100 * _test_rate(t)
+            for s in grn_rates
+            if (t := load_json(gdir / f"{label}_s{s}" / "repro_test_clean.json")) is not None
+        }
+        shared = sorted(ctrl)
+        if len(shared) >= 2:
+            comps.append(
+                compare(f"GRN ({grn})", [grn_rates[s] for s in shared], title,
+                        [ctrl[s] for s in shared], delta=SUCCESS_DELTA_POINTS, task="success, points")
+            )  # fmt: skip
+    seeds = sorted(grn_rates)
+    for name, title in TRIVIAL_TITLES.items():
+        b = trivial.get(name)
+        if b is not None:
+            rate_b = 100 * float(b["successes"]) / float(b.get("n", b.get("episodes", 1)))
+            comps.append(
+                compare(f"GRN ({grn})", [grn_rates[s] for s in seeds], title,
+                        [rate_b] * len(seeds), delta=SUCCESS_DELTA_POINTS, task="success, points")
+            )  # fmt: skip
+    if not comps:
+        return []
+    return [
+        "Run-level comparisons (the unit is the evolution, SPEC §6; the Fisher and McNemar "
+        "columns above describe single runs' episodes): per GRN seed, its clean test success "
+        "minus the control's, an exact sign-flip test over seeds, Holm-corrected over this "
+        f"table, with δ = {SUCCESS_DELTA_POINTS:g} points.",
+        "",
+        to_markdown(holm_table(comps), digits=1),
+        "",
+    ]
 
 
 def _controllers_paired(gdir: Path, controllers: list[str], seeds: list[int]) -> list[str]:
