@@ -46,6 +46,8 @@ __all__ = [
     "coverage",
     "markdown_to_html",
     "THESIS_GRN",
+    "run_level_block",
+    "SUCCESS_DELTA_POINTS",
 ]
 
 Runs = dict[str, dict[int, dict[str, Any]]]
@@ -376,7 +378,7 @@ def _controls_block(
         *ctrl_rows,
         "",
     ]
-    lines += _run_level_block(gdir, g, grn, specs, triv_base)
+    lines += run_level_block(gdir, g, grn, specs, triv_base)
     for title, d, p, mcn in diffs:
         if mcn:  # paired on the same episodes: the verdict is per GRN seed (exact McNemar)
             sig = sum(pm < 0.05 for _, pm in mcn)
@@ -400,7 +402,7 @@ def _test_rate(t: dict[str, Any]) -> float:
     return float(c["successes"]) / float(c.get("n", t["episodes"]))
 
 
-def _run_level_block(
+def run_level_block(
     gdir: Path,
     g: GrnBudget,
     grn: str,
