@@ -77,7 +77,47 @@ e4() {  # learned module networks beside E1's fixed ones
   done
 }
 
-for e in "${@:-E1 E3A G1 E2 E4}"; do
+g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step budget
+  local src; src=$(code_at 66abad3)
+  local base=(--config configs/grn_memory.yaml --keep validated)
+  for seed in 0 1 2 3 4 5 6 7; do
+    mem_arm "$src" carried "$seed" "${base[@]}"
+    mem_arm "$src" restarted "$seed" "${base[@]}" --set dynamics.restart=true
+    mem_arm "$src" linear "$seed" "${base[@]}" --controller linear
+    for m in recurrent_ppo ppo; do
+      local run="$out/memory/${m}_s$seed"
+      if [ ! -f "$run/summary.json" ]; then
+        local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
+        PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
+          --config configs/baselines_kuka_memory.yaml --set keep.rule=validated \
+          --budget-from "$out/memory/carried_s$seed" --quiet "${resume[@]}" --out "$run"
+      fi
+      locked_test "$src" "$run"
+    done
+  done
+}
+
+mem_arm() {  # mem_arm SRC ARM SEED ARGS...: evolve on the memory task, then the locked test
+  local src=$1 arm=$2 seed=$3; shift 3
+  local run="$out/memory/${arm}_s$seed"
+  if [ ! -f "$run/summary.json" ]; then
+    local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evolve --seed "$seed" --workers 2 --quiet \
+      "${resume[@]}" "$@" --out "$run"
+  fi
+  locked_test "$src" "$run"
+}
+
+locked_test() {  # 200 held-out-object episodes on the locked range, once
+  local src=$1 run=$2
+  if [ ! -f "$run/test_locked.json" ]; then
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
+      --objects test --test-seed 1000000 --no-baselines --workers 2 --json > "$run/test_locked.json.part"
+    mv "$run/test_locked.json.part" "$run/test_locked.json"
+  fi
+}
+
+for e in "${@:-E1 E3A G1 E2 E4 G2}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
