@@ -108,10 +108,11 @@ mem_arm() {  # mem_arm SRC ARM SEED ARGS...: evolve on the memory task, then the
   locked_test "$src" "$run"
 }
 
-locked_test() {  # 200 held-out-object episodes on the locked range, once
-  local src=$1 run=$2
+locked_test() {  # 200 held-out-object episodes on the locked range, once (GRN or SB3 run)
+  local src=$1 run=$2 cmd=(grn evaluate)
+  case "$run" in */recurrent_ppo_s*|*/ppo_s*) cmd=(baselines evaluate);; esac
   if [ ! -f "$run/test_locked.json" ]; then
-    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo "${cmd[@]}" "$run" --test-episodes 200 \
       --objects test --test-seed 1000000 --no-baselines --workers 2 --json > "$run/test_locked.json.part"
     mv "$run/test_locked.json.part" "$run/test_locked.json"
   fi
