@@ -118,7 +118,14 @@ locked_test() {  # 200 held-out-object episodes on the locked range, once (GRN o
   fi
 }
 
-for e in "${@:-E1 E3A G1 E2 E4 G2}"; do
+e5() {  # the module ablations beside E1's runs
+  local src; src=$(code_at 4532c39)
+  for s in 0-1 2-3 4-5 6-7 8-9; do
+    compare "$src" --variants no-da,no-5ht,no-ne,no-ach --seeds "$s" --out "$out/default"
+  done
+}
+
+for e in "${@:-E1 E3A G1 E2 E4 G2 E5}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
