@@ -15,6 +15,11 @@ code_at() {  # the worktree of commit $1 (created once)
   echo "$wt/src"
 }
 
+done_run() {  # a finished run: summary.json without "done": false (grn evolve writes one every generation)
+  "$py" -c 'import sys; from pathlib import Path; from evodevo.reproduce.run_files import finished
+p = Path(sys.argv[1]) / "summary.json"; sys.exit(0 if p.is_file() and finished(p) else 1)' "$1"
+}
+
 compare() {  # compare SRC ARGS...: biarm compare with the code of SRC
   local src=$1; shift
   PYTHONPATH="$src" nice -n 10 "$py" -m evodevo biarm compare --workers 2 --quiet "$@"
@@ -48,25 +53,39 @@ e3a() {  # the lateral scale of E3 (selection seeds 100-102; never reported)
 grn_arm() {  # grn_arm SRC ARM SEED ARGS...: evolve (resuming) and test on the locked range
   local src=$1 arm=$2 seed=$3; shift 3
   local run="$out/regulation/${arm}_s$seed"
-  if [ ! -f "$run/summary.json" ]; then
+  if ! done_run "$run"; then
     local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
     PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evolve --preset vision --seed "$seed" \
       --workers 2 --quiet "${resume[@]}" "$@" --out "$run"
   fi
-  if [ ! -f "$run/test_locked.json" ]; then
-    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
-      --objects test --test-seed 1000000 --no-baselines --workers 2 --json > "$run/test_locked.json.part"
-    mv "$run/test_locked.json.part" "$run/test_locked.json"
-  fi
+  locked_test "$src" "$run"
 }
 
 g1() {
-  local src; src=$(code_at 20acc0a)
+  local src; src=$(code_at 3b679d4)
   for seed in 0 1 2 3 4 5 6 7; do
-    grn_arm "$src" grn "$seed"
-    grn_arm "$src" noreg "$seed" --set genome.regulation=false
-    grn_arm "$src" linear "$seed" --controller linear
-    grn_arm "$src" mlp "$seed" --controller mlp
+    grn_arm "$src" grn "$seed" --keep validated
+    grn_arm "$src" noreg "$seed" --keep validated --set genome.regulation=false
+    grn_arm "$src" linear "$seed" --keep validated --controller linear
+    grn_arm "$src" mlp "$seed" --keep validated --controller mlp
+  done
+}
+
+g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
+  local src; src=$(code_at 3b679d4)
+  for seed in 0 1 2 3 4 5; do
+    grn_arm "$src" grn "$seed" --keep validated
+    grn_arm "$src" blind "$seed" --keep validated --blind
+    for m in ppo neat; do
+      local run="$out/regulation/${m}_s$seed"
+      if ! done_run "$run"; then
+        local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
+        PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
+          --config configs/baselines_kuka_vision.yaml --set keep.rule=validated \
+          --budget-from "$out/regulation/grn_s$seed" --workers 2 --quiet "${resume[@]}" --out "$run"
+      fi
+      locked_test "$src" "$run"
+    done
   done
 }
 
@@ -86,7 +105,7 @@ g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step 
     mem_arm "$src" linear "$seed" "${base[@]}" --controller linear
     for m in recurrent_ppo ppo; do
       local run="$out/memory/${m}_s$seed"
-      if [ ! -f "$run/summary.json" ]; then
+      if ! done_run "$run"; then
         local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
         PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
           --config configs/baselines_kuka_memory.yaml --set keep.rule=validated \
@@ -100,7 +119,7 @@ g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step 
 mem_arm() {  # mem_arm SRC ARM SEED ARGS...: evolve on the memory task, then the locked test
   local src=$1 arm=$2 seed=$3; shift 3
   local run="$out/memory/${arm}_s$seed"
-  if [ ! -f "$run/summary.json" ]; then
+  if ! done_run "$run"; then
     local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
     PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evolve --seed "$seed" --workers 2 --quiet \
       "${resume[@]}" "$@" --out "$run"
@@ -110,7 +129,7 @@ mem_arm() {  # mem_arm SRC ARM SEED ARGS...: evolve on the memory task, then the
 
 locked_test() {  # 200 held-out-object episodes on the locked range, once (GRN or SB3 run)
   local src=$1 run=$2 cmd=(grn evaluate)
-  case "$run" in */recurrent_ppo_s*|*/ppo_s*) cmd=(baselines evaluate);; esac
+  case "$run" in */recurrent_ppo_s*|*/ppo_s*|*/neat_s*) cmd=(baselines evaluate);; esac
   if [ ! -f "$run/test_locked.json" ]; then
     PYTHONPATH="$src" nice -n 10 "$py" -m evodevo "${cmd[@]}" "$run" --test-episodes 200 \
       --objects test --test-seed 1000000 --no-baselines --workers 2 --json > "$run/test_locked.json.part"
@@ -125,7 +144,7 @@ e5() {  # the module ablations beside E1's runs
   done
 }
 
-for e in "${@:-E1 E3A G1 E2 E4 G2 E5}"; do
+for e in "${@:-E1 E3A G1 G3 E2 E4 G2 E5}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
