@@ -37,8 +37,9 @@ def renamed(old: str, new: str, old_value: Any, new_value: Any) -> Any:
 #: Help of the test options shared by ``evaluate``, ``baselines`` and ``ablate``.
 TEST_EPISODES_HELP = "Test episodes [40 = evaluation.test_episodes of the config]."
 TEST_SEED_HELP = (
-    "Seed of the fixed test episodes [1000000 = evaluation.test_seed of the config: the locked "
-    "test range 1000000..1999999; 10000..999999 are validation seeds, SPEC §6]."
+    "Seed of the fixed test episodes [the run's evaluation.test_seed: 1000000, the locked test "
+    "range, for runs configured since the seed split; 10000, a validation seed, for older runs; "
+    "the output names the range, SPEC §6]."
 )
 OLD_EPISODES_HELP = "Deprecated name of --test-episodes."
 OLD_SEED_HELP = "Deprecated name of --test-seed."
