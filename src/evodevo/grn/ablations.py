@@ -20,6 +20,7 @@ import numpy as np
 
 from evodevo.config import replace
 from evodevo.errors import EvodevoError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluation import load_run, test_episodes
 from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.genome import GrnGenome
@@ -39,23 +40,25 @@ FEWER_GENES = 25
 Ablation = Callable[[GrnGenome, Any, np.random.Generator], tuple[GrnGenome, Any]]
 
 
-def _no_noise(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _no_noise(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     return g.copy(), replace(cfg, dynamics=replace(cfg.dynamics, noise_std=0.0))
 
 
-def _uniform_thresholds(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _uniform_thresholds(
+    g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator
+) -> tuple[GrnGenome, Any]:
     h = g.copy()
     h.theta[:] = UNIFORM_THETA
     return h, cfg
 
 
-def _no_regulation(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _no_regulation(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     h = g.copy()
     h.W_r[:] = 0.0
     return h, cfg
 
 
-def _fewer_genes(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _fewer_genes(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     k = min(FEWER_GENES, g.n_genes)
     h = GrnGenome(
         g.W_s[:, :k].copy(),
@@ -69,32 +72,34 @@ def _fewer_genes(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnG
     return h, cfg
 
 
-def _random_sensors(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _random_sensors(
+    g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator
+) -> tuple[GrnGenome, Any]:
     h = g.copy()
     h.W_s = rng.normal(0.0, cfg.genome.ws_std, g.W_s.shape)
     return h, cfg
 
 
-def _no_decay(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _no_decay(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     h = g.copy()
     h.delta[:] = 0.0
     return h, cfg
 
 
-def _random_motors(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _random_motors(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     h = g.copy()
     h.W_m = rng.normal(0.0, cfg.genome.wm_std, g.W_m.shape)
     return h, cfg
 
 
-def _random_matrix(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _random_matrix(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     h = g.copy()
     present = g.W_r != 0.0
     h.W_r = np.where(present, rng.normal(0.0, cfg.genome.wr_std, g.W_r.shape), 0.0)
     return h, cfg
 
 
-def _no_sparsity(g: GrnGenome, cfg: Any, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
+def _no_sparsity(g: GrnGenome, cfg: GrnConfig, rng: np.random.Generator) -> tuple[GrnGenome, Any]:
     h = g.copy()
     h.W_r = rng.normal(0.0, cfg.genome.wr_std, g.W_r.shape)
     return h, cfg
@@ -115,7 +120,7 @@ ABLATIONS: dict[str, Ablation] = {
 
 
 def ablate(
-    genome: GrnGenome, name: str, config: Any, rng: np.random.Generator
+    genome: GrnGenome, name: str, config: GrnConfig, rng: np.random.Generator
 ) -> tuple[GrnGenome, Any]:
     """Apply ablation ``name``; the input genome is not changed."""
     if name not in ABLATIONS:

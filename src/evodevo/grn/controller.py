@@ -31,7 +31,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
-from evodevo.grn.config import GENOME_BLOCKS
+from evodevo.grn.config import GENOME_BLOCKS, GrnConfig
 from evodevo.grn.dynamics import expression_step, motor_output
 from evodevo.grn.encoder import sensor_vector
 from evodevo.grn.genome import GrnGenome, init_genome, stack_genomes
@@ -146,7 +146,7 @@ class PlainGrnController:
     name = "plain"
     uses_encoder = True
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         self.config = config
         self.n_actions = int(n_actions)
         self.dyn = config.dynamics
@@ -319,7 +319,7 @@ class ZeroPolicy:
 
     uses_encoder = False
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         self.n_actions = int(n_actions)
 
     def constant_action(self) -> np.ndarray:
@@ -414,7 +414,7 @@ def controller_names() -> list[str]:
     return sorted(_REGISTRY)
 
 
-def check_controller(config: Any) -> None:
+def check_controller(config: GrnConfig) -> None:
     """Refuse a ``config.controller`` that is neither a registered kind nor ``"module:attr"``,
     with one error naming it (before any work starts)."""
     name = config.controller
@@ -435,7 +435,7 @@ def _resolve(target: Callable[..., Any] | str) -> Callable[..., Any]:
         raise EvodevoError(f"controller {target!r} cannot be imported ({exc})") from None
 
 
-def make_controller(config: Any, n_actions: int) -> Any:
+def make_controller(config: GrnConfig, n_actions: int) -> Any:
     """Build ``config.controller`` (a registered name or ``"module:attr"``) for ``n_actions``."""
     name = config.controller
     if name in _REGISTRY:
@@ -447,7 +447,7 @@ def make_controller(config: Any, n_actions: int) -> Any:
     return factory(config, n_actions)
 
 
-def make_policy(config: Any, n_actions: int, baseline: str | None = None) -> Any:
+def make_policy(config: GrnConfig, n_actions: int, baseline: str | None = None) -> Any:
     """The controller of ``config``, or the trivial policy ``baseline`` (a key of BASELINES)."""
     if baseline is None:
         return make_controller(config, n_actions)

@@ -17,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from evodevo.errors import EvodevoError, env_module_error
+from evodevo.grn.config import GrnConfig
 
 __all__ = [
     "make_env",
@@ -117,7 +118,7 @@ def proprio_of(info: dict[str, Any], n: int) -> np.ndarray:
     return p
 
 
-def evaluator_env_kwargs(config: Any) -> dict[str, Any]:
+def evaluator_env_kwargs(config: GrnConfig) -> dict[str, Any]:
     """The keyword arguments the :class:`Evaluator` makes its environments with.
 
     ``config.env.kwargs``, plus ``skip_empty_lift=False`` for the Kuka port when the training

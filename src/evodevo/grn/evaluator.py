@@ -41,6 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 from evodevo.errors import EvodevoError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.encoder import Encoder
 from evodevo.grn.env_interface import (
     action_dims,
@@ -269,7 +270,7 @@ def _init_worker(key: str, env_id: str, env_kwargs: dict[str, Any], encoder_stat
 class _Task:
     key: str
     policy_key: str
-    config: Any
+    config: GrnConfig
     n_actions: int
     baseline: str | None
     genomes: list[Any]
@@ -312,7 +313,7 @@ def _run_task(task: _Task) -> dict[str, np.ndarray]:
     return out
 
 
-def _check_sensors(config: Any, space: gym.Space[Any]) -> None:
+def _check_sensors(config: GrnConfig, space: gym.Space[Any]) -> None:
     """A vector observation replaces the sensors: n_visual must be 0, n_proprio its size."""
     if not is_vector_observation(space):
         return
@@ -325,7 +326,7 @@ def _check_sensors(config: Any, space: gym.Space[Any]) -> None:
         )
 
 
-def _check_frontend(config: Any, encoder: Any, space: gym.Space[Any]) -> None:
+def _check_frontend(config: GrnConfig, encoder: Any, space: gym.Space[Any]) -> None:
     """Before any episode: the front-end is the config's and can read this observation."""
     if encoder is None or is_vector_observation(space):
         return
@@ -406,7 +407,7 @@ class Evaluator:
 
     def __init__(
         self,
-        config: Any,
+        config: GrnConfig,
         encoder: Any,
         workers: int = 1,
         max_retries: int = 1,
@@ -461,7 +462,7 @@ class Evaluator:
         self,
         genomes: Sequence[Any],
         episodes: Sequence[Episode],
-        config: Any | None = None,
+        config: GrnConfig | None = None,
         baseline: str | None = None,
         measure_distance: bool = False,
     ) -> EpisodeResults:
@@ -506,7 +507,7 @@ class Evaluator:
         self,
         genomes: Sequence[Any],
         episodes: Sequence[Episode],
-        cfg: Any,
+        cfg: GrnConfig,
         baseline: str | None,
         measure_distance: bool,
     ) -> EpisodeResults:

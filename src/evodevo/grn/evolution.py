@@ -34,6 +34,7 @@ import numpy as np
 
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluator import Episode, Evaluator, genome_key
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
@@ -155,7 +156,7 @@ class Evolution:
     """
 
     def __init__(
-        self, config: Any, controller: Any, evaluator: Evaluator, hooks: Sequence[Hook] = ()
+        self, config: GrnConfig, controller: Any, evaluator: Evaluator, hooks: Sequence[Hook] = ()
     ) -> None:
         self.config = config
         self.controller = controller
@@ -576,7 +577,7 @@ def summarise_evolution(evo: Evolution) -> dict[str, Any]:
     }
 
 
-def _check_same_config(run: RunDir, config: Any, cfg_dict: dict[str, Any]) -> int | None:
+def _check_same_config(run: RunDir, config: GrnConfig, cfg_dict: dict[str, Any]) -> int | None:
     """Refuse to resume a run whose saved config differs from ``config``.
 
     The one difference allowed is more ``evolution.generations`` (extending a run, e.g. to
@@ -604,7 +605,7 @@ def _check_same_config(run: RunDir, config: Any, cfg_dict: dict[str, Any]) -> in
 
 
 def evolve_run(
-    config: Any,
+    config: GrnConfig,
     out: str | Path,
     workers: int = 1,
     resume: bool = False,

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.genome import check_frontend, load_arrays, save_arrays
 
 __all__ = [
@@ -104,7 +105,7 @@ class FeedForwardController:
     name = "feedforward"
     uses_encoder = True
 
-    def __init__(self, config: Any, n_actions: int, hidden_units: int = 0) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int, hidden_units: int = 0) -> None:
         self.config = config
         self.sensors = config.sensors
         self.ff = config.feedforward
@@ -221,7 +222,7 @@ class LinearController(FeedForwardController):
 
     name = "linear"
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         super().__init__(config, n_actions, hidden_units=0)
 
 
@@ -230,5 +231,5 @@ class MlpController(FeedForwardController):
 
     name = "mlp"
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         super().__init__(config, n_actions, hidden_units=config.feedforward.hidden)

@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
-from evodevo.grn.config import FRONTEND_FEATURES
+from evodevo.grn.config import FRONTEND_FEATURES, GrnConfig
 from evodevo.grn.encoder import Encoder
 from evodevo.grn.env_interface import make_env
 from evodevo.runs import atomic_write_bytes
@@ -349,7 +349,7 @@ def frontend_dim(name: str) -> int:
     return FRONTEND_FEATURES[name]
 
 
-def make_frontend(config: Any, seed: int | None = None) -> Any:
+def make_frontend(config: GrnConfig, seed: int | None = None) -> Any:
     """A new front-end for ``config.sensors.encoder`` (the CNN is drawn from ``seed``)."""
 
     name = config.sensors.encoder
@@ -367,7 +367,7 @@ def save_frontend(frontend: Any, run: Any) -> None:
         frontend.save(Path(run) / "encoder.pt")
 
 
-def load_frontend(config: Any, run: Any) -> Any:
+def load_frontend(config: GrnConfig, run: Any) -> Any:
     """The front-end saved in run directory ``run`` for ``config.sensors.encoder``."""
 
     name = config.sensors.encoder

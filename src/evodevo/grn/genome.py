@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError
+from evodevo.grn.config import GrnConfig
 from evodevo.runs import atomic_write_bytes
 
 __all__ = [
@@ -223,7 +224,7 @@ def check_frontend(header: Mapping[str, Any], frontend: str, path: str | Path) -
         )
 
 
-def init_genome(config: Any, n_actions: int, rng: np.random.Generator) -> GrnGenome:
+def init_genome(config: GrnConfig, n_actions: int, rng: np.random.Generator) -> GrnGenome:
     """Draw a genome with the SPEC §2.3 initialisation.
 
     With ``genome.regulation: false`` W_r is zeros; every other array is drawn as with

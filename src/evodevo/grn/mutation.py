@@ -23,17 +23,15 @@ True
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from evodevo.grn.config import PARAMETER_BLOCKS, WEIGHT_BLOCKS
+from evodevo.grn.config import PARAMETER_BLOCKS, WEIGHT_BLOCKS, GrnConfig
 from evodevo.grn.genome import GrnGenome
 
 __all__ = ["mutate_genome", "clip_to_bounds"]
 
 
-def clip_to_bounds(genome: GrnGenome, config: Any) -> GrnGenome:
+def clip_to_bounds(genome: GrnGenome, config: GrnConfig) -> GrnGenome:
     """Clip theta, delta and alpha to their bounds (in place); returns ``genome``."""
     for name in PARAMETER_BLOCKS:
         lo, hi = getattr(config.genome, f"{name}_bounds")
@@ -41,7 +39,7 @@ def clip_to_bounds(genome: GrnGenome, config: Any) -> GrnGenome:
     return genome
 
 
-def mutate_genome(parent: GrnGenome, config: Any, rng: np.random.Generator) -> GrnGenome:
+def mutate_genome(parent: GrnGenome, config: GrnConfig, rng: np.random.Generator) -> GrnGenome:
     """A mutated copy of ``parent`` (the parent is left untouched).
 
     Args:

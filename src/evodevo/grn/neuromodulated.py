@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import PlainGrnController
 from evodevo.grn.dynamics import expression_step, motor_output
 from evodevo.grn.genome import GrnGenome, init_genome, load_arrays, save_arrays, stack_genomes
@@ -177,7 +178,7 @@ def stack(genomes: Sequence[NeuromodGrnGenome]) -> NeuromodGrnGenome:
     return NeuromodGrnGenome(base, *extra)
 
 
-def clip_gamma(gamma: np.ndarray, config: Any) -> np.ndarray:
+def clip_gamma(gamma: np.ndarray, config: GrnConfig) -> np.ndarray:
     """Clip gamma (4,) to ``config.neuromod`` bounds, in place; returns it."""
     for i, (lo, hi) in enumerate(config.neuromod.gamma_bounds):
         gamma[i] = min(max(gamma[i], lo), hi)
@@ -206,7 +207,7 @@ class NeuromodGrnController(PlainGrnController):
 
     name = "neuromodulated"
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         super().__init__(config, n_actions)
         self.mod = config.neuromod
         self.tau = np.asarray(self.mod.tau, dtype=np.float64)

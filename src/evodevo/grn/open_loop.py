@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.genome import load_arrays, save_arrays
 
 __all__ = ["OpenLoopGenome", "OpenLoopController", "OpenLoopState"]
@@ -75,7 +76,7 @@ class OpenLoopController:
     name = "open_loop"
     uses_encoder = False
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         self.cfg = config.open_loop
         self.n_actions = int(n_actions)
 

@@ -25,6 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from evodevo.errors import ConfigError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.optimizers.cmaes import CmaEsOptimizer
 from evodevo.grn.optimizers.genetic import GeneticOptimizer
 
@@ -66,7 +67,7 @@ OPTIMIZER_CLASSES: dict[str, Callable[[Any, Any, np.random.Generator], Optimizer
 """Optimiser by ``evolution.optimizer`` name."""
 
 
-def make_optimizer(config: Any, controller: Any, rng: np.random.Generator) -> Optimizer:
+def make_optimizer(config: GrnConfig, controller: Any, rng: np.random.Generator) -> Optimizer:
     """The optimiser ``config.evolution.optimizer`` for ``controller``, drawing from ``rng``."""
     name = config.evolution.optimizer
     if name not in OPTIMIZER_CLASSES:

@@ -44,6 +44,7 @@ import cma
 import numpy as np
 
 from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluator import genome_key
 from evodevo.grn.optimizers.cma_state import dump_state, restore_state
 from evodevo.grn.optimizers.vector import GenomeVector
@@ -66,7 +67,7 @@ class CmaEsOptimizer:
 
     name = "cmaes"
 
-    def __init__(self, config: Any, controller: Any, rng: np.random.Generator) -> None:
+    def __init__(self, config: GrnConfig, controller: Any, rng: np.random.Generator) -> None:
         self.config = config
         self.controller = controller
         self.rng = rng

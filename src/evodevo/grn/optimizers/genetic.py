@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.selection import tournament
 
 __all__ = ["GeneticOptimizer"]
@@ -41,7 +42,7 @@ class GeneticOptimizer:
 
     name = "ga"
 
-    def __init__(self, config: Any, controller: Any, rng: np.random.Generator) -> None:
+    def __init__(self, config: GrnConfig, controller: Any, rng: np.random.Generator) -> None:
         self.config = config
         self.controller = controller
         self.rng = rng
