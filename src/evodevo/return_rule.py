@@ -45,7 +45,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from evodevo.errors import CheckpointError, ConfigError
 from evodevo.grn.evaluator import Episode
@@ -53,6 +53,9 @@ from evodevo.runs import RunDir
 from evodevo.safe_io import load_state, save_state
 from evodevo.seed_split import range_label, require_validation
 from evodevo.seeding import derive
+
+if TYPE_CHECKING:
+    from evodevo.grn.config import GrnConfig
 
 __all__ = [
     "RULES",
@@ -169,7 +172,7 @@ class ValidatedBest:
         return sum(float(r["seconds"]) for r in self.rows)
 
     def score(
-        self, evaluator: Any, candidate: Any, config: Any | None = None
+        self, evaluator: Any, candidate: Any, config: GrnConfig | None = None
     ) -> tuple[int, int, float]:
         """``candidate`` on the validation episodes: successes, env steps and seconds."""
         t0 = time.perf_counter()
@@ -211,7 +214,7 @@ class ValidatedBest:
         candidate: Any,
         at: int,
         state: Mapping[str, Any],
-        config: Any | None = None,
+        config: GrnConfig | None = None,
     ) -> bool:
         """:meth:`score` then :meth:`offer`: whether ``candidate`` is now the kept one."""
         successes, env_steps, seconds = self.score(evaluator, candidate, config)

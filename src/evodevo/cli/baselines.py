@@ -9,7 +9,7 @@ User errors raise :class:`~evodevo.errors.EvodevoError`, printed by the top-leve
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
@@ -21,6 +21,9 @@ from evodevo.cli.common import (
     check_seed,
 )
 from evodevo.errors import EvodevoError
+
+if TYPE_CHECKING:
+    from evodevo.baselines.kuka_config import KukaBaselineConfig
 
 __all__ = ["app"]
 
@@ -138,7 +141,7 @@ def kuka(
 
 
 def _train(
-    cfg: Any,
+    cfg: KukaBaselineConfig,
     out: Path,
     workers: int,
     resume: bool,

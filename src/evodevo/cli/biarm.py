@@ -13,13 +13,18 @@ Examples::
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from evodevo.cli.common import ADDRESS_HELP, check_backend, check_seed, parse_list, parse_seeds
 from evodevo.errors import EvodevoError
 from evodevo.runs import run_kind
+
+if TYPE_CHECKING:
+    from evodevo.neuromod.config import BiarmConfig
+    from evodevo.neuromod.variants import Variant
+    from evodevo.signals import GracefulStop
 
 #: Every variant name (kept literal: importing the variants module would load torch on start).
 VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, clamped, finetune, ewc, sb3-dqn, single"
@@ -160,8 +165,8 @@ def train(
 
 
 def _train_with_progress(
-    cfg: Any,
-    var: Any,
+    cfg: BiarmConfig,
+    var: Variant,
     seed: int,
     out: Path,
     resume: bool,
@@ -183,7 +188,14 @@ def _train_with_progress(
 
 
 def _train_with_bars(
-    cfg: Any, var: Any, seed: int, out: Path, resume: bool, quiet: bool, stop: Any, tb: Any
+    cfg: BiarmConfig,
+    var: Variant,
+    seed: int,
+    out: Path,
+    resume: bool,
+    quiet: bool,
+    stop: GracefulStop,
+    tb: Any,
 ) -> dict[str, Any]:
     from evodevo.neuromod.trainer import EpisodeInfo
     from evodevo.neuromod.trainer import train as run_train

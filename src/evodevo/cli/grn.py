@@ -10,7 +10,7 @@ import contextlib
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
@@ -32,6 +32,9 @@ from evodevo.cli.common import (
 from evodevo.config import parse_sets
 from evodevo.errors import EvodevoError
 from evodevo.runs import run_kind
+
+if TYPE_CHECKING:
+    from evodevo.grn.config import GrnConfig
 
 __all__ = ["app"]
 
@@ -92,7 +95,7 @@ def _remove_if_failed(out: Path, fresh: bool) -> Iterator[None]:
         raise
 
 
-def _env_overrides(env_id: str, cfg: Any) -> dict[str, Any]:
+def _env_overrides(env_id: str, cfg: GrnConfig) -> dict[str, Any]:
     """Config changes that drive ``env_id``, its sizes read from its spaces (``--env``).
 
     A flat Box observation is the sensor vector (``n_visual`` 0, ``n_proprio`` its size, its

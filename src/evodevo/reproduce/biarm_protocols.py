@@ -15,12 +15,13 @@ from typing import Any
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.compare import collect
 from evodevo.neuromod.thesis_numbers import TABLE_3_2
+from evodevo.reproduce.budget import ReproduceConfig
 from evodevo.stats import permutation_test, summarise
 
 __all__ = ["protocol_table", "grids"]
 
 
-def grids(cfg: Any) -> list[tuple[str, str]]:
+def grids(cfg: ReproduceConfig) -> list[tuple[str, str]]:
     """``(folder, protocol)`` of every BIARM grid of a budget, the main one first."""
     b = cfg.biarm
     return [("biarm", b.protocol), *b.other_protocols.items()]
@@ -51,7 +52,7 @@ def _diff(biarm: dict[int, float], pnn: dict[int, float]) -> str:
     return f"{sum(d) / len(d):+.1f} (p = {p:.2g}; higher on {sum(x > 0 for x in d)}/{len(d)} seeds)"
 
 
-def protocol_table(out: Path, cfg: Any) -> list[str]:
+def protocol_table(out: Path, cfg: ReproduceConfig) -> list[str]:
     """Markdown lines of the side-by-side table (empty when fewer than two grids ran)."""
     found: list[tuple[str, str, dict[str, dict[int, dict[str, Any]]]]] = []
     for folder, protocol in grids(cfg):
