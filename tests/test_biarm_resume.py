@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 import torch
 
+from evodevo.callbacks import Callback
 from evodevo.config import from_dict
 from evodevo.errors import CheckpointError, ConfigError
 from evodevo.neuromod import train
@@ -21,6 +22,17 @@ from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.trainer import TIMING_KEYS
 from evodevo.runs import RunDir
 from evodevo.safe_io import save_state
+
+
+class EpisodeCallback(Callback):
+    """A callback that calls ``fn`` after every training episode."""
+
+    def __init__(self, fn):
+        self.fn = fn
+
+    def on_episode(self, info):
+        self.fn(info)
+
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
@@ -84,7 +96,7 @@ def test_killed_mid_task_resumes_to_the_uninterrupted_run(
     cfg = tiny(modules={"sample_interval": 10, "learning": learning})
     train(cfg, variant, 4, tmp_path / "full")
     with pytest.raises(Killed):
-        train(cfg, variant, 4, tmp_path / "cut", hook=_kill_at(task, episode))
+        train(cfg, variant, 4, tmp_path / "cut", callback=EpisodeCallback(_kill_at(task, episode)))
     point = latest_resume_point(tmp_path / "cut" / "checkpoints")
     assert point is not None and point.task == task and point.episodes == 2
     partials = sorted(p.name for p in (tmp_path / "cut" / "checkpoints").glob("*_ep*.safetensors"))
@@ -104,7 +116,9 @@ def test_killed_mid_task_resumes_to_the_uninterrupted_run(
 
 def test_checkpoint_every_zero_writes_only_task_checkpoints(tmp_path):
     with pytest.raises(Killed):
-        train(tiny(checkpoint_every=0), "biarm", 1, tmp_path, hook=_kill_at(0, 4))
+        train(
+            tiny(checkpoint_every=0), "biarm", 1, tmp_path, callback=EpisodeCallback(_kill_at(0, 4))
+        )
     assert not (tmp_path / "checkpoints").is_dir() or not any((tmp_path / "checkpoints").iterdir())
     with pytest.raises(ConfigError, match="checkpoint_every=-1"):
         tiny(checkpoint_every=-1)
@@ -112,7 +126,7 @@ def test_checkpoint_every_zero_writes_only_task_checkpoints(tmp_path):
 
 def _partial_run(tmp_path: Path) -> Path:
     with pytest.raises(Killed):
-        train(tiny(), "biarm", 1, tmp_path, hook=_kill_at(0, 3))
+        train(tiny(), "biarm", 1, tmp_path, callback=EpisodeCallback(_kill_at(0, 3)))
     return tmp_path / "checkpoints" / "task0_ep2.safetensors"
 
 

@@ -10,13 +10,14 @@ import pytest
 import torch
 from test_grn_fakeenv import FAKE_ID
 
+from evodevo.callbacks import Callback
 from evodevo.config import from_dict
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import make_controller
 from evodevo.grn.encoder import Encoder
 from evodevo.grn.evaluator import Episode, Evaluator
-from evodevo.grn.evolution import Evolution, Hook, evolve_run
+from evodevo.grn.evolution import Evolution, evolve_run
 
 
 def fake_config(**sections) -> GrnConfig:
@@ -73,8 +74,8 @@ class _Stop(Exception):
     pass
 
 
-class _StopAfterFirst(Hook):
-    def on_generation(self, evo, record):
+class _StopAfterFirst(Callback):
+    def on_generation(self, record):
         raise _Stop
 
 
@@ -82,7 +83,7 @@ def test_interrupted_run_resumes_exactly(tmp_path):
     cfg = fake_config(evolution={"generations": 3})
     evolve_run(cfg, tmp_path / "full", progress=False)
     with pytest.raises(_Stop):
-        evolve_run(cfg, tmp_path / "cut", hooks=[_StopAfterFirst()], progress=False)
+        evolve_run(cfg, tmp_path / "cut", callbacks=[_StopAfterFirst()], progress=False)
     with pytest.raises(EvodevoError, match="--resume"):
         evolve_run(cfg, tmp_path / "cut", progress=False)
     evolve_run(cfg, tmp_path / "cut", resume=True, progress=False)

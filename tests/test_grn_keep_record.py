@@ -80,7 +80,7 @@ def test_an_interrupted_record_run_resumes_with_its_records(tmp_path):
     cfg = fake_config(evolution={**RECORD, "generations": 3, "keep": "record"})
     full = evolve_run(cfg, tmp_path / "full", progress=False)
     with pytest.raises(_Stop):
-        evolve_run(cfg, tmp_path / "cut", hooks=[_StopAfterFirst()], progress=False)
+        evolve_run(cfg, tmp_path / "cut", callbacks=[_StopAfterFirst()], progress=False)
     cut = evolve_run(cfg, tmp_path / "cut", resume=True, progress=False)
     assert cut["champion"] == full["champion"] and full["kept"] == "record"
     a = np.load(tmp_path / "full" / "best_genome.npz")

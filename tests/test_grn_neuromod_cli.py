@@ -13,11 +13,12 @@ import pytest
 from test_grn_fakeenv import FAKE_ID
 from typer.testing import CliRunner
 
+from evodevo.callbacks import Callback
 from evodevo.cli import app
 from evodevo.config import replace
 from evodevo.errors import EvodevoError
 from evodevo.grn.config import GrnConfig
-from evodevo.grn.evolution import Hook, evolve_run
+from evodevo.grn.evolution import evolve_run
 from evodevo.grn.figures import plot_run
 from evodevo.grn.genome import load_arrays
 from evodevo.grn.neuromodulated import (
@@ -107,8 +108,8 @@ class _Interrupt(Exception):
     pass
 
 
-class _StopAfterFirst(Hook):
-    def on_generation(self, evo, record):
+class _StopAfterFirst(Callback):
+    def on_generation(self, record):
         raise _Interrupt
 
 
@@ -122,7 +123,7 @@ def test_interrupted_neuromodulated_run_resumes_exactly(tmp_path):
     )
     whole = evolve_run(cfg, tmp_path / "whole", progress=False)
     with pytest.raises(_Interrupt):
-        evolve_run(cfg, tmp_path / "cut", hooks=[_StopAfterFirst()], progress=False)
+        evolve_run(cfg, tmp_path / "cut", callbacks=[_StopAfterFirst()], progress=False)
     resumed = evolve_run(cfg, tmp_path / "cut", resume=True, progress=False)
     assert resumed["fitness_history"] == whole["fitness_history"]
     a, _ = load_arrays(tmp_path / "whole" / "best_genome.npz", NeuromodGrnGenome.KIND)

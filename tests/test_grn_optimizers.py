@@ -19,6 +19,7 @@ import pytest
 from test_grn_evaluator import _Stop, _StopAfterFirst, fake_config, history, record_evaluations
 from test_grn_fakeenv import FAKE_ID
 
+from evodevo.callbacks import Callback
 from evodevo.config import from_dict, load_config, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
@@ -29,7 +30,6 @@ from evodevo.grn.evolution import (
     CHECKPOINT_FILE,
     EPISODE_KEY,
     Evolution,
-    Hook,
     evolve_run,
     training_episodes,
 )
@@ -69,8 +69,8 @@ def _quadratic_config(seed: int = 0, generations: int = 25, **evolution) -> GrnC
     )
 
 
-def _quadratic_run(cfg: GrnConfig, hooks=()) -> Evolution:
-    return Evolution(cfg, make_controller(cfg, 3), QuadraticProblem(), hooks).run()  # type: ignore[arg-type]
+def _quadratic_run(cfg: GrnConfig, callbacks=()) -> Evolution:
+    return Evolution(cfg, make_controller(cfg, 3), QuadraticProblem(), callbacks).run()  # type: ignore[arg-type]
 
 
 def _distance(genome) -> float:
@@ -101,11 +101,11 @@ def test_cmaes_same_seed_same_run_other_seed_other_run():
     assert [r.best_fitness for r in a.history] != [r.best_fitness for r in c.history]
 
 
-class _StopAt(Hook):
+class _StopAt(Callback):
     def __init__(self, generation: int) -> None:
         self.generation = generation
 
-    def on_generation(self, evo, record):
+    def on_generation(self, record):
         if record.generation == self.generation:
             raise _Stop
 
@@ -116,9 +116,9 @@ def test_cmaes_resumes_exactly_from_its_checkpoint_file(tmp_path, diagonal):
     cfg.cmaes.diagonal = diagonal
     full = _quadratic_run(cfg)
 
-    class Save(Hook):
-        def on_generation(self, evo, record):
-            evo.save_checkpoint(tmp_path / CHECKPOINT_FILE)
+    class Save(Callback):
+        def on_generation(self, record):
+            self.owner.save_checkpoint(tmp_path / CHECKPOINT_FILE)
 
     with pytest.raises(_Stop):
         _quadratic_run(cfg, [Save(), _StopAt(2)])
@@ -200,7 +200,7 @@ def test_cmaes_interrupted_run_resumes_exactly_through_evolve_run(tmp_path):
     cfg = fake_config(evolution={"optimizer": "cmaes", "generations": 3, "early_stop": False})
     evolve_run(cfg, tmp_path / "full", progress=False, workers=2)
     with pytest.raises(_Stop):
-        evolve_run(cfg, tmp_path / "cut", hooks=[_StopAfterFirst()], progress=False)
+        evolve_run(cfg, tmp_path / "cut", callbacks=[_StopAfterFirst()], progress=False)
     evolve_run(cfg, tmp_path / "cut", resume=True, progress=False, workers=2)
     assert history(tmp_path / "full") == history(tmp_path / "cut")
     a = (tmp_path / "full" / "best_genome.npz").read_bytes()

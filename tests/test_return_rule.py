@@ -170,7 +170,7 @@ def test_a_killed_grn_run_resumes_with_the_same_returned_genome(tmp_path, monkey
     full = evolve_run(cfg, tmp_path / "full", progress=False)
     # killed between two candidates (after generation 0's checkpoint)
     with pytest.raises(_Stop):
-        evolve_run(cfg, tmp_path / "cut", hooks=[_StopAfterFirst()], progress=False)
+        evolve_run(cfg, tmp_path / "cut", callbacks=[_StopAfterFirst()], progress=False)
     cut = evolve_run(cfg, tmp_path / "cut", resume=True, progress=False)
     # killed between the validation state and the checkpoint of generation 1: it is redone
     original, calls = evolution.save_arrays, []

@@ -6,7 +6,7 @@ items through :func:`evodevo.parallel.report_progress`, so the code that evaluat
 progress calls of its own. Each new ``map`` restarts the bar as the next phase; the columns
 show items done, elapsed time and the time remaining for the phase. :class:`GenerationBar` adds
 a bar over the generations of an evolution with the ETA of the whole run, and prints the
-per-generation line above the bars. :class:`TrainingBar` is a Kuka baseline's training hook (a
+per-generation line above the bars. :class:`TrainingBar` is a Kuka baseline's training callback (a
 bar over its env-step budget or NEAT's generations), :class:`StepBar` a bar over the steps of a
 script (``evodevo reproduce``). Machine-readable output (``--json``, tables) stays on
 stdout, untouched.
@@ -20,6 +20,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from evodevo.callbacks import Callback
 from evodevo.parallel import report_progress
 
 __all__ = [
@@ -168,8 +169,8 @@ def generation_line(record: Any, generations: int) -> str:
     )
 
 
-class GenerationBar:
-    """An evolution hook: a bar over the generations (ETA of the run) and one line each.
+class GenerationBar(Callback):
+    """An evolution callback: a bar over the generations (ETA of the run) and one line each.
 
     Use inside a :class:`CommandProgress` (it draws on the same display).
     """
@@ -183,14 +184,15 @@ class GenerationBar:
                 "generations", total=generations, completed=start
             )
 
-    def on_generation(self, evo: Any, record: Any) -> None:
+    def on_generation(self, record: Any) -> None:
         self.cmd.print(generation_line(record, self.generations))
         if self._task is not None:
-            self.cmd.progress.update(self._task, completed=evo.generation)
+            self.cmd.progress.update(self._task, completed=self.owner.generation)
 
-    def on_end(self, evo: Any) -> None:
+    def on_end(self) -> None:
         if self._task is not None:  # an early stop ends the bar where evolution ended
-            self.cmd.progress.update(self._task, total=evo.generation, completed=evo.generation)
+            gen = self.owner.generation
+            self.cmd.progress.update(self._task, total=gen, completed=gen)
 
 
 class _Bar:
@@ -230,8 +232,8 @@ class _Bar:
             self.progress.update(self._task, completed=shown, **kwargs)
 
 
-class TrainingBar(_Bar):
-    """A Kuka baseline's training hook (:class:`~evodevo.baselines.hooks.TrainingHook`): a bar
+class TrainingBar(_Bar, Callback):
+    """A Kuka baseline's training callback (:class:`~evodevo.callbacks.Callback`): a bar
     with ETA over the env-step budget (``total`` steps), or over NEAT's generations
     (``by_generation``); ``total`` None (a wall-clock budget) shows the count and elapsed time.
     """
@@ -246,17 +248,14 @@ class TrainingBar(_Bar):
         if not self.by_generation:
             self.update(int(env_steps))
 
-    def on_curve_row(self, row: dict[str, Any]) -> None:
-        """Unused hook."""
-
     def on_generation(self, row: dict[str, Any]) -> None:
         if self.by_generation:
             self.update(int(row["generation"]) + 1)
 
 
-class TaskBars:
+class TaskBars(Callback):
     """The BIARM trainer's progress: one bar per task over its episodes, with the last
-    episode's return, epsilon and learning rate (``on_task`` and ``hook`` of
+    episode's return, epsilon and learning rate (a callback of
     :func:`evodevo.neuromod.trainer.train`); nothing when quiet. A context manager.
 
     >>> with TaskBars(quiet=True) as bars:
@@ -292,13 +291,13 @@ class TaskBars:
                 f"[{index + 1}] {spec.env_id}", total=spec.episodes, info=""
             )
 
-    def on_episode(self, task: int, episode: int, ret: float, epsilon: float, lr: float) -> None:
-        """Episode ``episode`` of task ``task`` finished with return ``ret``."""
-        if self.progress is not None and task in self._bars:
+    def on_episode(self, info: Any) -> None:
+        """An episode finished (an :class:`~evodevo.neuromod.task_runner.EpisodeInfo`)."""
+        if self.progress is not None and info.task in self._bars:
             self.progress.update(
-                self._bars[task],
-                completed=episode + 1,
-                info=f"return {ret:8.1f}  eps {epsilon:.3f}  lr {lr:.2e}",
+                self._bars[info.task],
+                completed=info.episode + 1,
+                info=f"return {info.ret:8.1f}  eps {info.epsilon:.3f}  lr {info.lr:.2e}",
             )
 
 

@@ -8,8 +8,8 @@
 training episode (BIARM), per generation (evolution) or per learning-curve point (baselines),
 flushed as TensorBoard does.
 
-:class:`EpisodeScalars` is a BIARM episode hook, :class:`GenerationScalars` an evolution hook,
-:class:`CurveScalars` a baseline-training hook; all wrap a :func:`writer`. :class:`RunsExporter`
+:class:`EpisodeScalars` is a BIARM episode callback, :class:`GenerationScalars` an evolution callback,
+:class:`CurveScalars` a baseline-training callback; all wrap a :func:`writer`. :class:`RunsExporter`
 copies the ``metrics.csv`` of every finished run of a ``biarm compare`` grid (whose runs train in
 worker processes) into ``DIR/<run>``, as each run finishes.
 """
@@ -17,10 +17,10 @@ worker processes) into ``DIR/<run>``, as each run finishes.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from evodevo.callbacks import Callback
 from evodevo.errors import EvodevoError
 
 __all__ = [
@@ -64,18 +64,16 @@ def writer(logdir: str | Path) -> Any:
     return summary_writer(log_dir=str(_make_logdir(logdir)))
 
 
-class EpisodeScalars:
-    """BIARM hook: after every training episode, ``task{i}_{env}/return|length|epsilon|lr``.
+class EpisodeScalars(Callback):
+    """BIARM callback: after every training episode, ``task{i}_{env}/return|length|epsilon|lr``.
 
-    The step is the episode's index within its task. Chain it with another hook through
-    ``then`` (e.g. the progress bar).
+    The step is the episode's index within its task.
     """
 
-    def __init__(self, logdir: str | Path, then: Callable[[Any], None] | None = None) -> None:
+    def __init__(self, logdir: str | Path) -> None:
         self.tb = writer(logdir)
-        self.then = then
 
-    def __call__(self, e: Any) -> None:
+    def on_episode(self, e: Any) -> None:
         prefix = f"task{e.task}_{e.env_id}"
         for name, value in (
             ("return", e.ret),
@@ -84,15 +82,14 @@ class EpisodeScalars:
             ("lr", e.lr),
         ):
             self.tb.add_scalar(f"{prefix}/{name}", float(value), e.episode)
-        if self.then is not None:
-            self.then(e)
 
     def close(self) -> None:
         self.tb.close()
 
 
-class GenerationScalars:
-    """Evolution hook: the ``history.csv`` row of every generation as scalars (step: generation)."""
+class GenerationScalars(Callback):
+    """Evolution callback: the ``history.csv`` row of every generation as scalars (step:
+    generation)."""
 
     FIELDS = (
         "best_fitness",
@@ -108,19 +105,19 @@ class GenerationScalars:
     def __init__(self, logdir: str | Path) -> None:
         self.tb = writer(logdir)
 
-    def on_generation(self, evo: Any, record: Any) -> None:
+    def on_generation(self, record: Any) -> None:
         for name in self.FIELDS:
             value = float(getattr(record, name))
             if not math.isnan(value):
                 self.tb.add_scalar(f"evolution/{name}", value, record.generation)
         self.tb.flush()
 
-    def on_end(self, evo: Any) -> None:
+    def on_end(self) -> None:
         self.tb.close()
 
 
-class CurveScalars:
-    """Baseline-training hook (:class:`~evodevo.baselines.hooks.TrainingHook`).
+class CurveScalars(Callback):
+    """Baseline-training callback (:class:`~evodevo.callbacks.Callback`).
 
     Every ``learning_curve.csv`` row as ``baseline/success``, ``baseline/mean_reward`` and
     ``baseline/train_s`` (step: env steps), and NEAT's ``history.csv`` rows as
@@ -137,9 +134,6 @@ class CurveScalars:
         v = float(value)
         if not math.isnan(v):
             self.tb.add_scalar(tag, v, step)
-
-    def on_steps(self, env_steps: int) -> None:
-        """Unused hook."""
 
     def on_curve_row(self, row: dict[str, Any]) -> None:
         for name in self.CURVE:

@@ -17,8 +17,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from evodevo.baselines.hooks import TrainingHooks
 from evodevo.baselines.kuka_config import KukaBaselineConfig
+from evodevo.callbacks import Callback, CallbackList
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.runs import RunDir, machine_info
@@ -60,7 +60,7 @@ def run_baseline(
     quiet: bool = False,
     backend: str = "local",
     address: str | None = None,
-    hooks: Sequence[Any] = (),
+    callbacks: Sequence[Callback] = (),
 ) -> dict[str, Any]:
     """Train (or, for zero/random, just record) the baseline ``cfg.method`` into ``out``.
 
@@ -73,7 +73,7 @@ def run_baseline(
         quiet: no progress lines.
         backend: "local" or "ray": where NEAT's evaluator runs (the same numbers either way).
         address: Ray cluster ("auto" or HOST:PORT); None starts a private local Ray.
-        hooks: :class:`~evodevo.baselines.hooks.TrainingHook` s (progress, TensorBoard).
+        callbacks: :class:`~evodevo.callbacks.Callback` s (progress, TensorBoard).
 
     Returns:
         The run's ``summary.json`` content.
@@ -101,7 +101,7 @@ def run_baseline(
     if cfg.method in ("ppo", "td3", "recurrent_ppo"):  # RecurrentPPO: sb3-contrib
         from evodevo.baselines.sb3_kuka import train_sb3
 
-        return train_sb3(cfg, run, resume=resume, quiet=quiet, hooks=TrainingHooks(hooks))
+        return train_sb3(cfg, run, resume=resume, quiet=quiet, callback=CallbackList(callbacks))
     if cfg.method == "neat":
         from evodevo.baselines.neat_kuka import train_neat
 
@@ -113,7 +113,7 @@ def run_baseline(
             quiet=quiet,
             backend=backend,
             address=address,
-            hooks=TrainingHooks(hooks),
+            callback=CallbackList(callbacks),
         )
     summary: dict[str, Any] = {
         "kind": "baseline_kuka",

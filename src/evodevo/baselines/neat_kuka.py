@@ -33,11 +33,11 @@ from typing import Any
 
 import numpy as np
 
-from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_config import KukaBaselineConfig
 from evodevo.baselines.neat_files import restore_population, save_population
 from evodevo.baselines.policies import NeatNet, neat_config
 from evodevo.baselines.sb3_kuka import CURVE_FIELDS, summarise
+from evodevo.callbacks import Callback, CallbackList
 from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.evolution import EPISODE_KEY, training_episodes
@@ -175,7 +175,7 @@ class RunReporter:
         cfg: KukaBaselineConfig,
         state: NeatState,
         quiet: bool,
-        hooks: TrainingHook | None = None,
+        callback: Callback | None = None,
         population: Any = None,
         keeper: ValidatedBest | None = None,
     ):
@@ -183,7 +183,7 @@ class RunReporter:
         self.cfg = cfg
         self.state = state
         self.quiet = quiet
-        self.hooks = hooks if hooks is not None else TrainingHook()
+        self.callback = callback if callback is not None else Callback()
         self.population = population
         """The ``neat.Population`` whose state every checkpoint saves."""
         self.keeper = keeper
@@ -237,9 +237,9 @@ class RunReporter:
                 old.unlink(missing_ok=True)
         self.write_outputs()
         h = self.state.history[-1]
-        self.hooks.on_generation(h)
-        self.hooks.on_curve_row(curve_rows([h])[0])
-        self.hooks.on_steps(self.state.env_steps)
+        self.callback.on_generation(h)
+        self.callback.on_curve_row(curve_rows([h])[0])
+        self.callback.on_steps(self.state.env_steps)
         if not self.quiet:
             print(
                 f"gen {h['generation'] + 1:>3} best F {h['best_fitness']:6.2f} "
@@ -351,7 +351,7 @@ def train_neat(
     quiet: bool = False,
     backend: str = "local",
     address: str | None = None,
-    hooks: TrainingHook | None = None,
+    callback: Callback | None = None,
 ) -> dict[str, Any]:
     """Evolve NEAT networks per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict.
 
@@ -359,12 +359,13 @@ def train_neat(
     processes (``backend="local"``) or Ray actors (``backend="ray"``, cluster ``address``).
 
     Budget: ``budget.env_steps`` and/or ``budget.minutes`` (checked after every generation, so a
-    run ends within one generation past it), else ``neat.generations``. ``hooks`` hear every
+    run ends within one generation past it), else ``neat.generations``. ``callback`` hears every
     generation's history and learning-curve rows once they are written.
     """
     import neat
 
-    hooks = hooks if hooks is not None else TrainingHooks()
+    callback = callback if callback is not None else CallbackList()
+    callback.init(run)
 
     ecfg = cfg.evaluator_config()
     # A run killed before its first generation's checkpoint has nothing to continue: start it.
@@ -392,9 +393,9 @@ def train_neat(
                 "generation",
                 upto=state.generation - 1,
             )
-        reporter = RunReporter(run, cfg, state, quiet, hooks, population=pop, keeper=keeper)
+        reporter = RunReporter(run, cfg, state, quiet, callback, population=pop, keeper=keeper)
         pop.add_reporter(reporter)
-        hooks.on_steps(state.env_steps)
+        callback.on_steps(state.env_steps)
 
         def fitness(genomes: list[tuple[int, Any]], config: Any) -> None:
             t0 = time.perf_counter()

@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 import random
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, cast
@@ -75,6 +75,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import Logger
 
 from evodevo.baselines.sb3_files import MODEL_SUFFIX, load_sb3_policy, save_sb3
+from evodevo.callbacks import Callback
 from evodevo.config import to_dict
 from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
@@ -152,7 +153,7 @@ class EpisodeEpsilon:
 
 
 class TaskCallback(BaseCallback):
-    """Per episode: metrics row, hook, epsilon decay, stop at the budget or on a signal."""
+    """Per episode: metrics row, callback, epsilon decay, stop at the budget or on a signal."""
 
     def __init__(
         self,
@@ -163,7 +164,7 @@ class TaskCallback(BaseCallback):
         step0: int,
         metrics: CsvAppender | None,
         neuromod: CsvAppender | None,
-        hook: Callable[[EpisodeInfo], None] | None,
+        callback: Callback | None,
         stop: GracefulStop | None,
     ) -> None:
         super().__init__(verbose=0)
@@ -171,7 +172,8 @@ class TaskCallback(BaseCallback):
         self.step = step0
         self.task_steps = 0
         self.episodes = 0
-        self.metrics, self.neuromod, self.hook, self.stop = metrics, neuromod, hook, stop
+        self.metrics, self.neuromod, self.stop = metrics, neuromod, stop
+        self.episode_callback = callback
         self.per_step: list[float] = []
         self.stopped = False
         self._ep_start_step = 0
@@ -234,8 +236,8 @@ class TaskCallback(BaseCallback):
                     "step": self.step,
                 }
             )
-        if self.hook is not None:
-            self.hook(
+        if self.episode_callback is not None:
+            self.episode_callback.on_episode(
                 EpisodeInfo(
                     self.index,
                     self.spec.env_id,
@@ -301,7 +303,7 @@ def _train_one(
     step0: int,
     metrics: CsvAppender,
     neuromod: CsvAppender,
-    hook: Callable[[EpisodeInfo], None] | None,
+    callback: Callback | None,
     stop: GracefulStop | None,
 ) -> tuple[DQN, TaskCallback]:
     """Build and train task ``index``'s model until its episode budget is spent."""
@@ -314,12 +316,14 @@ def _train_one(
             epsilon = EpisodeEpsilon(d.eps_start, d.eps_decay, d.eps_min)
             model.exploration_schedule = epsilon
             model.exploration_rate = epsilon.eps
-            callback = TaskCallback(spec, index, cfg, epsilon, step0, metrics, neuromod, hook, stop)
+            task_cb = TaskCallback(
+                spec, index, cfg, epsilon, step0, metrics, neuromod, callback, stop
+            )
             limit = spec.max_steps or 100_000
-            model.learn(spec.episodes * limit + 1, callback=callback)
+            model.learn(spec.episodes * limit + 1, callback=task_cb)
     finally:
         env.close()
-    return model, callback
+    return model, task_cb
 
 
 def _keep_rows(run: RunDir, name: str, fields: list[str], tasks_done: int) -> None:
@@ -335,8 +339,7 @@ def train_sb3_tasks(
     seed: int,
     out: str | Path,
     resume: bool = False,
-    hook: Callable[[EpisodeInfo], None] | None = None,
-    on_task: Callable[[int, TaskSpec], None] | None = None,
+    callback: Callback | None = None,
     stop: GracefulStop | None = None,
 ) -> dict[str, Any]:
     """Train one SB3 DQN per task into ``out``; the arguments and the returned summary are
@@ -374,9 +377,9 @@ def train_sb3_tasks(
     ):
         for i in range(len(results), len(specs)):
             spec = specs[i]
-            if on_task is not None:
-                on_task(i, spec)
-            model, cb = _train_one(cfg, spec, i, seed, step, metrics, neuromod, hook, stop)
+            if callback is not None:
+                callback.on_task(i, spec)
+            model, cb = _train_one(cfg, spec, i, seed, step, metrics, neuromod, callback, stop)
             if cb.stopped and stop is not None:
                 stop.check(
                     f"episode {cb.episodes} of task {i} ({spec.env_id}); the unfinished task "

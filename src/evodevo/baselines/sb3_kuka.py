@@ -41,7 +41,6 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
 
-from evodevo.baselines.hooks import TrainingHook, TrainingHooks
 from evodevo.baselines.kuka_cnn import KukaCnn
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
 from evodevo.baselines.policies import Sb3Model
@@ -53,6 +52,8 @@ from evodevo.baselines.sb3_files import (
     restore_sb3,
     save_sb3,
 )
+from evodevo.callbacks import Callback
+from evodevo.callbacks import CallbackList as RunCallbacks
 from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import Evaluator, make_env
 from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
@@ -161,14 +162,14 @@ class TimedEvalCallback(EvalCallback):
         clock: TrainClock,
         run: RunDir,
         quiet: bool,
-        hooks: TrainingHook | None = None,
+        callback: Callback | None = None,
         **kwargs: Any,
     ) -> None:
         super().__init__(eval_env, **kwargs)
         self.clock = clock
         self.run = run
         self.quiet = quiet
-        self.hooks = hooks if hooks is not None else TrainingHook()
+        self.run_callback = callback if callback is not None else Callback()
         self.rows: list[dict[str, Any]] = []
 
     def _on_step(self) -> bool:
@@ -187,7 +188,7 @@ class TimedEvalCallback(EvalCallback):
         }
         self.rows.append(row)
         self.run.write_csv("learning_curve.csv", self.rows, CURVE_FIELDS)
-        self.hooks.on_curve_row(row)
+        self.run_callback.on_curve_row(row)
         if not self.quiet:
             print(
                 f"steps {row['env_steps']:>7} success {success:.2f} training {row['train_s']:.0f}s",
@@ -198,14 +199,14 @@ class TimedEvalCallback(EvalCallback):
 
 
 class StepsCallback(BaseCallback):
-    """Tells the training hooks the env steps done after every step (progress bars)."""
+    """Tells the training callbacks the env steps done after every step (progress bars)."""
 
-    def __init__(self, hooks: TrainingHook) -> None:
+    def __init__(self, callback: Callback) -> None:
         super().__init__()
-        self.hooks = hooks
+        self.run_callback = callback
 
     def _on_step(self) -> bool:
-        self.hooks.on_steps(int(self.num_timesteps))
+        self.run_callback.on_steps(int(self.num_timesteps))
         return True
 
 
@@ -453,13 +454,14 @@ def train_sb3(
     run: RunDir,
     resume: bool = False,
     quiet: bool = False,
-    hooks: TrainingHook | None = None,
+    callback: Callback | None = None,
 ) -> dict[str, Any]:
     """Train PPO or TD3 per ``cfg`` in run directory ``run``; returns ``summary.json``'s dict.
 
-    ``hooks`` hear the env steps after every step and every ``learning_curve.csv`` row.
+    ``callback`` hears the env steps after every step and every ``learning_curve.csv`` row.
     """
-    hooks = hooks if hooks is not None else TrainingHooks()
+    run_cb: Callback = callback if callback is not None else RunCallbacks()
+    run_cb.init(run)
     b = cfg.budget
     max_steps = (
         b.env_steps if b.env_steps is not None else (None if b.minutes else b.default_env_steps)
@@ -493,7 +495,7 @@ def train_sb3(
             clock,
             run,
             quiet,
-            hooks,
+            run_cb,
             n_eval_episodes=b.eval_episodes,
             eval_freq=b.eval_every_steps,
             deterministic=True,
@@ -523,10 +525,10 @@ def train_sb3(
                 ClockCallback(clock, b.checkpoint_every_steps, folder),
                 evaluator,
                 budget,
-                StepsCallback(hooks),
+                StepsCallback(run_cb),
             ]
         )
-        hooks.on_steps(done_steps)
+        run_cb.on_steps(done_steps)
         remaining = (max_steps - done_steps) if max_steps is not None else _UNLIMITED_STEPS
         clock.begin()
         if remaining > 0 and (max_s is None or clock.train_s < max_s):

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
+from evodevo.callbacks import Callback
 from evodevo.cli.common import (
     ADDRESS_HELP,
     BACKEND_HELP,
@@ -164,13 +165,13 @@ def _train(
         total = cfg.neat.generations if by_generation else b.default_env_steps
     unit = "generations" if by_generation else "env steps"
     trained = cfg.method in ("ppo", "td3", "neat", "recurrent_ppo")
-    hooks: list[Any] = []
+    callbacks: list[Callback] = []
     tb = None
     if tensorboard is not None:
         from evodevo.tensorboard import CurveScalars
 
         tb = CurveScalars(tensorboard)
-        hooks.append(tb)
+        callbacks.append(tb)
     try:
         with TrainingBar(f"{cfg.method} {unit}", total, quiet or not trained, by_generation) as bar:
             return run_baseline(
@@ -181,7 +182,7 @@ def _train(
                 quiet=quiet,
                 backend=backend,
                 address=address,
-                hooks=[bar, *hooks],
+                callbacks=[bar, *callbacks],
             )
     finally:
         if tb is not None:

@@ -197,20 +197,13 @@ def _train_with_bars(
     stop: GracefulStop,
     tb: Any,
 ) -> dict[str, Any]:
-    from evodevo.neuromod.trainer import EpisodeInfo
+    from evodevo.callbacks import CallbackList
     from evodevo.neuromod.trainer import train as run_train
     from evodevo.progress import TaskBars
 
     with TaskBars(quiet) as bars:
-
-        def hook(e: EpisodeInfo) -> None:
-            bars.on_episode(e.task, e.episode, e.ret, e.epsilon, e.lr)
-            if tb is not None:
-                tb(e)
-
-        return run_train(
-            cfg, var, seed, out, resume=resume, hook=hook, on_task=bars.on_task, stop=stop
-        )
+        callback = CallbackList([bars, tb])
+        return run_train(cfg, var, seed, out, resume=resume, callback=callback, stop=stop)
 
 
 @app.command()

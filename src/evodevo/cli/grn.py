@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
+from evodevo.callbacks import Callback
 from evodevo.cli.common import (
     ADDRESS_HELP,
     BACKEND_HELP,
@@ -253,19 +254,19 @@ def evolve(
     from evodevo.progress import CommandProgress, GenerationBar
 
     fresh = not out.exists()
-    hooks: list[Any] = []
+    callbacks: list[Callback] = []
     if tensorboard is not None:
         from evodevo.tensorboard import GenerationScalars
 
-        hooks.append(GenerationScalars(tensorboard))
+        callbacks.append(GenerationScalars(tensorboard))
     with CommandProgress("evaluate population", quiet) as bars, _remove_if_failed(out, fresh):
-        hooks.insert(0, GenerationBar(bars, cfg.evolution.generations))
+        callbacks.insert(0, GenerationBar(bars, cfg.evolution.generations))
         summary = evolve_run(
             cfg,
             out,
             workers=workers,
             resume=resume,
-            hooks=hooks,
+            callbacks=callbacks,
             progress=False,  # the bars print the per-generation line
             backend=backend,
             address=address,

@@ -1,4 +1,4 @@
-"""The evolution loop of Algorithm 3 (SPEC §2.4), shared by every optimiser, with hooks.
+"""The evolution loop of Algorithm 3 (SPEC §2.4), shared by every optimiser, with callbacks.
 
 Each generation (ask-evaluate-tell): the optimiser's population (``evolution.optimizer``:
 the thesis' GA, elites included, or CMA-ES's samples; :mod:`evodevo.grn.optimizers`) is
@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from evodevo.callbacks import Callback, CallbackList
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
@@ -49,7 +50,6 @@ from evodevo.stats import wilson_interval
 
 __all__ = [
     "GenerationRecord",
-    "Hook",
     "ProgressPrinter",
     "Checkpointer",
     "Evolution",
@@ -105,20 +105,11 @@ class GenerationRecord:
     """Episodes of ``episodes`` copied from an identical genome, not run (evaluation.dedupe)."""
 
 
-class Hook:
-    """Callbacks of the optimiser; override what you need."""
-
-    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
-        """After a generation was evaluated and the next population bred."""
-
-    def on_end(self, evo: Evolution) -> None:
-        """When evolution stops (budget spent or early stop)."""
-
-
-class ProgressPrinter(Hook):
+class ProgressPrinter(Callback):
     """One progress line per generation on stderr."""
 
-    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
+    def on_generation(self, record: GenerationRecord) -> None:
+        evo: Evolution = self.owner
         r = record
         retest = "" if np.isnan(r.retest_success) else f" retest {r.retest_success:.2f}"
         if evo.validated is not None and evo.validated.rows:
@@ -133,7 +124,8 @@ class ProgressPrinter(Hook):
             flush=True,
         )
 
-    def on_end(self, evo: Evolution) -> None:
+    def on_end(self) -> None:
+        evo: Evolution = self.owner
         p = evo.final_pick
         if p is not None and p["after_generation"] == evo.generation:
             print(
@@ -152,16 +144,21 @@ class Evolution:
         controller: the controller kind (``init_genome``, ``mutate``, ``connections``,
             ``genome_from_arrays``; ``evolvable`` and ``repair`` for CMA-ES).
         evaluator: scores genomes on episodes.
-        hooks: callbacks.
+        callbacks: told after every generation and at the end (:mod:`evodevo.callbacks`).
     """
 
     def __init__(
-        self, config: GrnConfig, controller: Any, evaluator: Evaluator, hooks: Sequence[Hook] = ()
+        self,
+        config: GrnConfig,
+        controller: Any,
+        evaluator: Evaluator,
+        callbacks: Sequence[Callback] = (),
     ) -> None:
         self.config = config
         self.controller = controller
         self.evaluator = evaluator
-        self.hooks = list(hooks)
+        self.callback = CallbackList(callbacks)
+        self.callback.init(self)
         self.rng = np_rng(config.seed, EVOLUTION_KEY)
         self.optimizer = make_optimizer(config, controller, self.rng)
         self.population: list[Any] = self.optimizer.ask()
@@ -270,8 +267,7 @@ class Evolution:
         )
         self.history.append(record)
         self.generation += 1
-        for hook in self.hooks:
-            hook.on_generation(self, record)
+        self.callback.on_generation(record)
         return record
 
     def validate(self, genome: Any) -> bool:
@@ -373,7 +369,7 @@ class Evolution:
         return self.finish()
 
     def finish(self) -> Evolution:
-        """Choose the returned genome (``evolution.keep``, the final pick); call the end hooks.
+        """Choose the returned genome (``evolution.keep``, the final pick); call the end callbacks.
 
         :meth:`run` calls it once the budget is spent; a caller stepping the loop itself (e.g.
         against a wall-clock budget) calls it when it stops.
@@ -390,8 +386,7 @@ class Evolution:
             and (self.final_pick is None or self.final_pick["after_generation"] != self.generation)
         ):
             self.pick_final()
-        for hook in self.hooks:
-            hook.on_end(self)
+        self.callback.on_end()
         return self
 
     # -- checkpoints -------------------------------------------------------------------------
@@ -502,33 +497,33 @@ def _record_key(genome: Any) -> str:
     )
 
 
-class StopOnSignal(Hook):
+class StopOnSignal(Callback):
     """Stop after the generation that was running when SIGINT/SIGTERM arrived (it is checkpointed)."""
 
     def __init__(self, stop: GracefulStop, run_path: Path) -> None:
         self.stop = stop
         self.run_path = run_path
 
-    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
+    def on_generation(self, record: GenerationRecord) -> None:
         self.stop.check(
             f"generation {record.generation}",
             f"continue with: evodevo grn evolve --resume --out {self.run_path}",
         )
 
 
-class Checkpointer(Hook):
+class Checkpointer(Callback):
     """After every generation: checkpoint, ``history.csv``, ``best_genome.npz``, ``summary.json``."""
 
     def __init__(self, run: RunDir) -> None:
         self.run = run
 
-    def on_generation(self, evo: Evolution, record: GenerationRecord) -> None:
-        evo.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)
-        self.write_outputs(evo)
+    def on_generation(self, record: GenerationRecord) -> None:
+        self.owner.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)
+        self.write_outputs(self.owner)
 
-    def on_end(self, evo: Evolution) -> None:
-        evo.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)  # holds the final pick
-        self.write_outputs(evo)
+    def on_end(self) -> None:
+        self.owner.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)  # holds the final pick
+        self.write_outputs(self.owner)
 
     def write_outputs(self, evo: Evolution) -> None:
         rows = [asdict(r) for r in evo.history]
@@ -609,7 +604,7 @@ def evolve_run(
     out: str | Path,
     workers: int = 1,
     resume: bool = False,
-    hooks: Sequence[Hook] = (),
+    callbacks: Sequence[Callback] = (),
     progress: bool = True,
     backend: str = "local",
     address: str | None = None,
@@ -621,7 +616,7 @@ def evolve_run(
         out: run directory (created).
         workers: worker processes for the evaluator.
         resume: continue from ``out/checkpoints/checkpoint.npz`` (config must match).
-        hooks: extra callbacks.
+        callbacks: extra callbacks (:mod:`evodevo.callbacks`).
         progress: print one line per generation.
         backend: "local" (process pool) or "ray" (Ray actors); results are the same.
         address: Ray cluster address ("auto" or HOST:PORT); None starts a local Ray.
@@ -667,11 +662,11 @@ def evolve_run(
     ):
         controller = make_controller(config, evaluator.n_actions)
         # Checkpoint first, then report, then stop cleanly if SIGINT/SIGTERM arrived.
-        all_hooks: list[Hook] = [Checkpointer(run)]
+        own: list[Callback] = [Checkpointer(run)]
         if progress:
-            all_hooks.append(ProgressPrinter())
-        all_hooks.append(StopOnSignal(stop, run.path))
-        evo = Evolution(config, controller, evaluator, [*all_hooks, *hooks])
+            own.append(ProgressPrinter())
+        own.append(StopOnSignal(stop, run.path))
+        evo = Evolution(config, controller, evaluator, [*own, *callbacks])
         if resume:
             evo.load_checkpoint(ckpt)
         evo.run()

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from evodevo.callbacks import Callback
 from evodevo.errors import CheckpointError
 from evodevo.neuromod.agent import BiarmAgent
 from evodevo.neuromod.config import MODULE_NAMES
@@ -32,7 +32,6 @@ __all__ = [
     "METRIC_FIELDS",
     "NEUROMOD_FIELDS",
     "EpisodeInfo",
-    "EpisodeHook",
     "TaskRunner",
     "train_task",
 ]
@@ -43,7 +42,7 @@ NEUROMOD_FIELDS = ["step", "task", *[f"s_{m}" for m in MODULE_NAMES], "n_task", 
 
 @dataclass(frozen=True)
 class EpisodeInfo:
-    """What a progress hook receives after every training episode."""
+    """What a callback's ``on_episode`` receives after every training episode."""
 
     task: int
     env_id: str
@@ -53,9 +52,6 @@ class EpisodeInfo:
     length: int
     epsilon: float
     lr: float
-
-
-EpisodeHook = Callable[[EpisodeInfo], None]
 
 
 def _neuromod_row(agent: BiarmAgent, step: int, task: int, n_task: float) -> dict[str, Any]:
@@ -93,11 +89,11 @@ class TaskRunner:
         step0: int = 0,
         metrics: CsvAppender | None = None,
         neuromod: CsvAppender | None = None,
-        hook: EpisodeHook | None = None,
+        callback: Callback | None = None,
         resume: dict[str, Any] | None = None,
     ) -> None:
         self.agent, self.spec, self.index = agent, spec, index
-        self.metrics, self.neuromod, self.hook = metrics, neuromod, hook
+        self.metrics, self.neuromod, self.callback = metrics, neuromod, callback
         agent.dqn = agent.cfg.dqn.for_task(spec.env_id)  # dqn.per_task (SPEC §1.6)
         if resume is None:
             agent.begin_task(spec.n_actions)
@@ -247,8 +243,8 @@ class TaskRunner:
                     "step": step,
                 }
             )
-        if self.hook is not None:
-            self.hook(
+        if self.callback is not None:
+            self.callback.on_episode(
                 EpisodeInfo(index, spec.env_id, ep, spec.episodes, ret, length, eps0, agent.lr())
             )
         self.eps = eps if per_step else max(dqn.eps_min, eps * dqn.eps_decay)
@@ -267,14 +263,14 @@ def train_task(
     step0: int,
     metrics: CsvAppender | None,
     neuromod: CsvAppender | None,
-    hook: EpisodeHook | None = None,
+    callback: Callback | None = None,
     max_env_steps: int | None = None,
 ) -> tuple[int, list[float]]:
     """Train column ``index`` on ``spec``; returns (global step, per-episode seconds/step).
 
     ``max_env_steps`` stops early after that many environment steps (benchmarks).
     """
-    runner = TaskRunner(agent, spec, index, seed, step0, metrics, neuromod, hook)
+    runner = TaskRunner(agent, spec, index, seed, step0, metrics, neuromod, callback)
     try:
         for _ in range(spec.episodes):
             runner.episode(max_env_steps)

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from evodevo.callbacks import Callback
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, EvodevoError
 from evodevo.neuromod.agent import BiarmAgent
@@ -47,7 +48,6 @@ from evodevo.neuromod.resume import check_resume, saved_config
 from evodevo.neuromod.task_runner import (
     METRIC_FIELDS,
     NEUROMOD_FIELDS,
-    EpisodeHook,
     EpisodeInfo,
     TaskRunner,
     train_task,
@@ -107,8 +107,7 @@ def train(
     seed: int,
     out: str | Path,
     resume: bool = False,
-    hook: EpisodeHook | None = None,
-    on_task: Callable[[int, TaskSpec], None] | None = None,
+    callback: Callback | None = None,
     stop: GracefulStop | None = None,
 ) -> dict[str, Any]:
     """Run the whole task sequence for one variant and seed; returns the summary.
@@ -125,8 +124,8 @@ def train(
             the rows of ``metrics.csv``/``neuromod.csv`` written after it are dropped, and the
             run ends with the same ``summary.json`` (wall-time fields aside) as an
             uninterrupted one.
-        hook: called after every training episode.
-        on_task: called when a task starts (or resumes).
+        callback: told when a task starts (or resumes) and after every training episode
+            (:class:`~evodevo.callbacks.Callback`: ``on_task``, ``on_episode``, ``on_end``).
         stop: a :class:`~evodevo.signals.GracefulStop`; when it reports a signal, the run
             finishes the current episode, checkpoints and raises
             :class:`~evodevo.signals.StopRequested`.
@@ -134,9 +133,11 @@ def train(
     var = get_variant(variant) if isinstance(variant, str) else variant
     other = get_trainer(var.architecture)  # e.g. sb3: an SB3 DQN per task, same run files
     if other is not None:
-        return other(cfg, var, seed, out, resume, hook, on_task, stop)
+        return other(cfg, var, seed, out, resume, callback, stop)
     run, specs, d_max, point = _open_run(cfg, var, seed, out, resume)
     agent = BiarmAgent(cfg, var, d_max, seed)
+    if callback is not None:
+        callback.init(agent)
     state = _restore(run, agent, var, seed, point if resume else None)
     seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
     ctx = _RunContext(run, agent, var, seed, cfg.checkpoint_every, RunClock(state.before), stop)
@@ -151,10 +152,10 @@ def train(
     ):
         for i in range(state.start, len(specs)):
             spec = specs[i]
-            if on_task is not None:
-                on_task(i, spec)
+            if callback is not None:
+                callback.on_task(i, spec)
             runner = TaskRunner(
-                agent, spec, i, seed, state.step, metrics, neuromod, hook, resume=state.partial
+                agent, spec, i, seed, state.step, metrics, neuromod, callback, resume=state.partial
             )
             state.partial = None
             _train_task(ctx, runner, state.results, validation)
@@ -168,6 +169,8 @@ def train(
             if stop is not None and i + 1 < len(specs):
                 stop.check(f"task {i} ({spec.env_id})", ctx.hint)
     agent.end_training()
+    if callback is not None:
+        callback.on_end()
     summary = _summary(cfg, ctx, specs, state.results, seeds, d_max)
     run.write_summary(summary)
     return summary
