@@ -96,10 +96,16 @@ def test_sb3_baseline_trains_to_the_exact_step_budget_and_is_evaluable(tmp_path,
         method == "td3"
     )
     assert not list(out.rglob("*.zip")) and not list(out.rglob("*.pkl"))
-    res = invoke("evaluate", out, "--test-episodes", 1, "--no-baselines", "--json")
+    res = invoke("evaluate", out, "--test-episodes", 2, "--no-baselines", "--json")
     result = json.loads(res.output.strip().splitlines()[-1])
-    assert result["controller"] == method and result["episodes"] == 1
-    assert result["successes"] in (0, 1) and (out / "eval_test_0.json").is_file()
+    assert result["controller"] == method and result["episodes"] == 2
+    # the printed result is the saved one, and its count is that of the saved episodes
+    assert json.loads((out / "eval_test_0.json").read_text())["successes"] == result["successes"]
+    rows = (out / "eval_test_0_episodes.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    genome = [dict(zip(header, r.split(","), strict=True)) for r in rows[1:]]
+    genome = [r for r in genome if r["policy"] == "genome"]
+    assert len(genome) == 2 and sum(int(r["success"]) for r in genome) == result["successes"]
 
 
 def test_a_wall_clock_budget_stops_training_by_time(tmp_path, tiny):
