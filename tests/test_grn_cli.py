@@ -165,7 +165,7 @@ def test_resume_of_a_run_killed_before_its_first_checkpoint_starts_it(tmp_path):
 
     assert history(out) == history(ref)
     # a different config is still refused, and a folder with no run still needs no --resume
-    with pytest.raises(EvodevoError, match="config differs"):
+    with pytest.raises(EvodevoError, match="saved config differs"):
         invoke("evolve", "--config", cfg, "--seed", 5, "--out", out, "--resume", "--quiet")
     with pytest.raises(EvodevoError, match="does not exist"):
         invoke("evolve", "--config", cfg, "--out", tmp_path / "none", "--resume", "--quiet")

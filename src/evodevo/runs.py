@@ -156,6 +156,17 @@ def run_kind(path: str | Path) -> str | None:
     return str(kind) if kind is not None else None
 
 
+def _first_difference(a: Any, b: Any, path: str) -> tuple[str, Any, Any] | None:
+    """The first dotted key at which nested mappings ``a`` and ``b`` differ, with both values."""
+    if isinstance(a, Mapping) and isinstance(b, Mapping):
+        for k in sorted(set(a) | set(b), key=str):
+            found = _first_difference(a.get(k), b.get(k), f"{path}.{k}")
+            if found is not None:
+                return found
+        return None
+    return None if a == b else (path, a, b)
+
+
 class RunDir:
     """One run's folder: ``config.json``, ``*.csv`` metrics, ``summary.json``, ``checkpoints/``."""
 
@@ -176,15 +187,23 @@ class RunDir:
         return p
 
     def check_same_config(
-        self, mine: Mapping[str, Any], keys: Sequence[str], theirs: Mapping[str, Any]
+        self,
+        mine: Mapping[str, Any],
+        keys: Sequence[str],
+        theirs: Mapping[str, Any],
+        hint: str = "",
     ) -> None:
         """``--resume``: refuse to continue when a key of the saved config (``theirs``, as the
-        method reads it from ``config.json``) differs from this run's (``mine``)."""
+        method reads it from ``config.json``) differs from this run's (``mine``); the error
+        names the first differing key (dotted) and both values, then ``hint``."""
         for key in keys:
-            if theirs.get(key) != mine.get(key):
+            where = _first_difference(theirs.get(key), mine.get(key), key)
+            if where is not None:
+                path, old, new = where
                 raise CheckpointError(
-                    f"--resume: {key} of {str(self.path)!r} ({theirs.get(key)!r}) differs from "
-                    f"this run's ({mine.get(key)!r}); use the same options or another --out"
+                    f"--resume: the saved config differs from this run's at {path}: {old!r} in "
+                    f"{str(self.path / 'config.json')!r}, {new!r} now; use the same options or "
+                    f"another --out{hint}"
                 )
 
     def write_config(self, config: Mapping[str, Any], kind: str) -> None:

@@ -84,13 +84,8 @@ def run_baseline(
     if resume:
         if not (run / "config.json").is_file():
             raise EvodevoError(f"--resume: {str(run.path)!r} holds no run; start without --resume")
-        saved = read_baseline_config(run)
-        if to_dict(saved) != cfg_dict:
-            raise EvodevoError(
-                f"--resume: the config differs from the one saved in {str(run / 'config.json')!r} "
-                f"(a {saved.method} run, seed {saved.seed}); resume with the same options or "
-                "choose another --out"
-            )
+        saved = to_dict(read_baseline_config(run))
+        run.check_same_config(cfg_dict, list(cfg_dict), saved)
     else:
         if (run / "config.json").is_file():
             raise EvodevoError(

@@ -590,12 +590,12 @@ def _check_same_config(run: RunDir, config: GrnConfig, cfg_dict: dict[str, Any])
             extended = old
             saved = {**saved, "evolution": {**saved["evolution"]}}
             saved["evolution"]["generations"] = cfg_dict["evolution"]["generations"]
-    if saved != cfg_dict:
+    if saved is None:
         raise EvodevoError(
-            f"--resume: the config differs from the one saved in {str(run / 'config.json')!r}; "
-            "resume with the same options (only --generations may grow) or start a new run "
-            "directory"
+            f"--resume: the config saved in {str(run / 'config.json')!r} is not a GRN config "
+            "this version reads; start a new run directory"
         )
+    run.check_same_config(cfg_dict, list(cfg_dict), saved, " (only --generations may grow)")
     return extended
 
 
