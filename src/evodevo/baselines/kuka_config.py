@@ -16,7 +16,7 @@ GRN run's :class:`~evodevo.grn.config.GrnConfig`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from evodevo.config import doc
 from evodevo.errors import ConfigError
@@ -116,6 +116,19 @@ class PpoConfig:
         "4.1) or blob (the vision preset's 4 image-only object-localising features, an MLP "
         "policy)",
     )
+
+    def sb3_kwargs(self) -> dict[str, Any]:
+        """The PPO hyper-parameters as Stable-Baselines3's (and sb3-contrib's) keywords."""
+        return {
+            "learning_rate": self.learning_rate,
+            "n_steps": self.n_steps,
+            "batch_size": self.batch_size,
+            "n_epochs": self.n_epochs,
+            "gamma": self.gamma,
+            "gae_lambda": self.gae_lambda,
+            "clip_range": self.clip_range,
+            "ent_coef": self.ent_coef,
+        }
 
     def validate(self) -> None:
         for key in ("learning_rate", "clip_range", "n_steps", "batch_size", "n_epochs"):

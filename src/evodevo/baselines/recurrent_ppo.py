@@ -35,14 +35,7 @@ def build_recurrent_ppo(cfg: KukaBaselineConfig, env: Any) -> RecurrentPPO:
     return RecurrentPPO(
         "MlpLstmPolicy",
         env,
-        learning_rate=p.learning_rate,
-        n_steps=p.n_steps,
-        batch_size=p.batch_size,
-        n_epochs=p.n_epochs,
-        gamma=p.gamma,
-        gae_lambda=p.gae_lambda,
-        clip_range=p.clip_range,
-        ent_coef=p.ent_coef,
+        **p.sb3_kwargs(),
         policy_kwargs={
             "net_arch": list(p.net_arch),
             "lstm_hidden_size": r.lstm_hidden_size,

@@ -342,14 +342,7 @@ def build_model(cfg: KukaBaselineConfig, env: Any) -> Any:
         return PPO(
             "MlpPolicy" if blob else "CnnPolicy",
             env,
-            learning_rate=p.learning_rate,
-            n_steps=p.n_steps,
-            batch_size=p.batch_size,
-            n_epochs=p.n_epochs,
-            gamma=p.gamma,
-            gae_lambda=p.gae_lambda,
-            clip_range=p.clip_range,
-            ent_coef=p.ent_coef,
+            **p.sb3_kwargs(),
             policy_kwargs={"net_arch": list(p.net_arch)}
             if blob
             else _policy_kwargs(p.cnn, p.net_arch),
