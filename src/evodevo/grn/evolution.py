@@ -26,7 +26,7 @@ import json
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -37,19 +37,30 @@ from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluator import Episode, Evaluator, genome_key
+from evodevo.grn.evolution_callbacks import (
+    CHECKPOINT_FILE,
+    Checkpointer,
+    GenerationRecord,
+    ProgressPrinter,
+    StopOnSignal,
+    summarise_evolution,
+)
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.optimizers import make_optimizer
 from evodevo.grn.selection import rank
-from evodevo.return_rule import STATE_FILE, VALIDATED, ValidatedBest, summary_fields
-from evodevo.runs import RunDir, machine_info, write_json
+from evodevo.return_rule import STATE_FILE, VALIDATED, ValidatedBest
+from evodevo.runs import RunDir, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
 from evodevo.stats import wilson_interval
 
 __all__ = [
+    "CHECKPOINT_FILE",
     "GenerationRecord",
+    "StopOnSignal",
+    "summarise_evolution",
     "ProgressPrinter",
     "Checkpointer",
     "Evolution",
@@ -69,7 +80,6 @@ RETEST_KEY = 4
 """Seed stream of the early-stop retest episodes (per generation)."""
 FINAL_PICK_KEY = 5
 """Seed stream of the final-pick episodes (``evolution.final_pick_episodes``)."""
-CHECKPOINT_FILE = "checkpoint.npz"
 OPTIMIZER_PREFIX = "optimizer__"
 """Checkpoint arrays of the optimiser's state (none for the GA)."""
 
@@ -82,58 +92,6 @@ def training_episodes(
     return [
         Episode(derive(seed, key, generation, i), noisy=i >= count - n_noisy) for i in range(count)
     ]
-
-
-@dataclass
-class GenerationRecord:
-    """One row of ``history.csv``."""
-
-    generation: int
-    best_fitness: float
-    mean_fitness: float
-    best_success: float
-    mean_success: float
-    best_connections: int
-    mean_connections: float
-    retest_success: float
-    episodes: int
-    env_steps: int
-    eval_s: float
-    evals_per_s: float
-    elapsed_s: float
-    episodes_saved: int = 0
-    """Episodes of ``episodes`` copied from an identical genome, not run (evaluation.dedupe)."""
-
-
-class ProgressPrinter(Callback):
-    """One progress line per generation on stderr."""
-
-    def on_generation(self, record: GenerationRecord) -> None:
-        evo: Evolution = self.owner
-        r = record
-        retest = "" if np.isnan(r.retest_success) else f" retest {r.retest_success:.2f}"
-        if evo.validated is not None and evo.validated.rows:
-            v = evo.validated.rows[-1]
-            retest += f" validation {v['successes']}/{v['episodes']} (kept gen {v['kept_at'] + 1})"
-        print(
-            f"gen {r.generation + 1:>3}/{evo.config.evolution.generations} "
-            f"best F {r.best_fitness:6.2f} mean F {r.mean_fitness:6.2f} "
-            f"best success {r.best_success:.2f}{retest} connections {r.best_connections} "
-            f"{r.evals_per_s:.2f} ep/s elapsed {r.elapsed_s:.0f}s",
-            file=sys.stderr,
-            flush=True,
-        )
-
-    def on_end(self) -> None:
-        evo: Evolution = self.owner
-        p = evo.final_pick
-        if p is not None and p["after_generation"] == evo.generation:
-            print(
-                f"final pick: elites won {p['successes']} of {p['episodes']} fresh episodes; "
-                f"kept rank {p['picked_rank']}",
-                file=sys.stderr,
-                flush=True,
-            )
 
 
 class Evolution:
@@ -495,81 +453,6 @@ def _record_key(genome: Any) -> str:
         f"evolution.keep=record needs genomes with arrays to key their records; "
         f"{type(genome).__name__} has none. Use evolution.keep: last"
     )
-
-
-class StopOnSignal(Callback):
-    """Stop after the generation that was running when SIGINT/SIGTERM arrived (it is checkpointed)."""
-
-    def __init__(self, stop: GracefulStop, run_path: Path) -> None:
-        self.stop = stop
-        self.run_path = run_path
-
-    def on_generation(self, record: GenerationRecord) -> None:
-        self.stop.check(
-            f"generation {record.generation}",
-            f"continue with: evodevo grn evolve --resume --out {self.run_path}",
-        )
-
-
-class Checkpointer(Callback):
-    """After every generation: checkpoint, ``history.csv``, ``best_genome.npz``, ``summary.json``."""
-
-    def __init__(self, run: RunDir) -> None:
-        self.run = run
-
-    def on_generation(self, record: GenerationRecord) -> None:
-        self.owner.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)
-        self.write_outputs(self.owner)
-
-    def on_end(self) -> None:
-        self.owner.save_checkpoint(self.run.checkpoints / CHECKPOINT_FILE)  # holds the final pick
-        self.write_outputs(self.owner)
-
-    def write_outputs(self, evo: Evolution) -> None:
-        rows = [asdict(r) for r in evo.history]
-        self.run.write_csv("history.csv", rows, list(GenerationRecord.__dataclass_fields__))
-        if evo.validated is not None:
-            evo.validated.write_csv(self.run)
-        if evo.best_genome is not None:
-            evo.best_genome.save(self.run / "best_genome.npz", to_dict(evo.config))
-        self.run.write_summary(summarise_evolution(evo))
-
-
-def summarise_evolution(evo: Evolution) -> dict[str, Any]:
-    """The ``summary.json`` of an evolution run."""
-    h = evo.history
-    return {
-        "kind": "grn_evolve",
-        "controller": evo.config.controller,
-        "optimizer": evo.config.evolution.optimizer,
-        "blind": evo.config.sensors.blind,
-        "seed": evo.config.seed,
-        "fitness_history": [r.best_fitness for r in h],
-        "mean_fitness_history": [r.mean_fitness for r in h],
-        "success_history": [r.best_success for r in h],
-        "connections_history": [r.best_connections for r in h],
-        "retest_history": [None if np.isnan(r.retest_success) else r.retest_success for r in h],
-        "generations_run": evo.generation,
-        "stopped_early": evo.stopped_early,
-        "done": evo.done,
-        "wall_s": evo.elapsed_s,
-        "episodes_run": evo.episodes_run,
-        "env_steps": evo.env_steps,
-        "episodes_saved": evo.episodes_saved,
-        "reevaluated_generations": evo.reevaluated,
-        "final_pick": evo.final_pick,
-        "kept": evo.config.evolution.keep,
-        **summary_fields(evo.config.evolution.keep, evo.validated),
-        "champion": evo.champion_record(),
-        "best_fitness": h[-1].best_fitness if h else None,
-        "best_training_success": h[-1].best_success if h else None,
-        "budget": {
-            "population": evo.config.evolution.population,
-            "generations": evo.config.evolution.generations,
-            "episodes_per_evaluation": evo.config.evaluation.episodes,
-        },
-        "machine": machine_info(),
-    }
 
 
 def _check_same_config(run: RunDir, config: GrnConfig, cfg_dict: dict[str, Any]) -> int | None:
