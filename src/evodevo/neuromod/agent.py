@@ -24,10 +24,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from evodevo.neuromod.columns import _EMPTY, Column, ProgressiveNet, huber
+from evodevo.neuromod.columns import Column, ProgressiveNet, huber
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.ewc import EWC
 from evodevo.neuromod.flat_params import FlatParams, adam_step, flatten, flatten_adam_state
+from evodevo.neuromod.kernels import NO_TENSOR
 from evodevo.neuromod.kernels import load as load_kernel
 from evodevo.neuromod.lr_modulation import effective_lr
 from evodevo.neuromod.modules import Neuromodulators
@@ -146,7 +147,7 @@ class BiarmAgent:
                 list(self.target.parameters()),
                 # the views of the flat gradient buffer, in parameter order
                 [
-                    p.grad if p.requires_grad and p.grad is not None else _EMPTY
+                    p.grad if p.requires_grad and p.grad is not None else NO_TENSOR
                     for p in column.parameters()
                 ],
             )
@@ -257,7 +258,7 @@ class BiarmAgent:
         prev = net.lateral_inputs(torch.cat((obs, nobs)), col, st) if col > 0 else ()
         dqn = self.dqn
         return load_kernel().td_update(  # type: ignore[union-attr]
-            obs, nobs, act, rew, term, list(prev), _EMPTY if st is None else st,
+            obs, nobs, act, rew, term, list(prev), NO_TENSOR if st is None else st,
             online, target, grads, net.gated, dqn.gamma, dqn.huber_delta, dqn.double_q,
         )  # fmt: skip
 

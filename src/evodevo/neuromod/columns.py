@@ -39,14 +39,13 @@ import torch.nn.functional as F
 from scipy.special import expit
 from torch import nn
 
+from evodevo.neuromod.gated_laterals import Prev, context_value, gated_laterals
+from evodevo.neuromod.kernels import NO_TENSOR
 from evodevo.neuromod.kernels import load as load_kernel
 from evodevo.neuromod.kernels import resolve as resolve_kernel
-from evodevo.neuromod.modules import logistic
 from evodevo.seeding import torch_gen
 
 __all__ = ["Column", "ProgressiveNet", "context_value", "gated_laterals", "xavier"]
-
-_EMPTY = torch.empty(0)  # "no tensor" for the C++ calls (no module states; untrained ctx_w)
 
 
 def xavier(shape: tuple[int, ...], fan: tuple[int, int], gen: torch.Generator) -> nn.Parameter:
@@ -61,54 +60,6 @@ def _fused() -> Any:
     mod = load_kernel()
     assert mod is not None
     return mod
-
-
-# ---------------------------------------------------------------------------- gated laterals
-Heads = tuple[tuple[torch.Tensor, torch.Tensor], ...]
-#: Frozen columns' activations as :meth:`ProgressiveNet.features` returns them.
-Prev = tuple[torch.Tensor, ...]
-
-
-def context_value(weights: Sequence[float], states: Sequence[float]) -> float:
-    """Context gate ``sigmoid(sum_m w_m s_m)`` of Eq. 3.8 as a Python float (no autograd)."""
-    return logistic(sum(w * x for w, x in zip(weights, states, strict=True)))
-
-
-def gated_laterals(
-    feats: torch.Tensor,
-    w: torch.Tensor,
-    b: torch.Tensor,
-    gate: torch.Tensor | float,
-    heads: Heads,
-) -> tuple[torch.Tensor, ...]:
-    """Eq. 3.8-3.9 for ``n`` stacked adapter blocks feeding ``len(heads)`` layers.
-
-    ``feats`` (n, B, hidden) holds block j's input ``h_k``; ``w`` (n, hidden, 2r) = [V | W_alpha]
-    and ``b`` (n, 1, 2r) their biases. With ``o = h_k [V | W_alpha] + b`` (one batched product
-    for all blocks), ``glu(o) = V h_k * sigmoid(W_alpha h_k)`` and ``zc = glu(o) * gate`` is
-    ``alpha * V h`` of Eq. 3.8 (``gate`` the context gate: a scalar tensor, one per sample
-    (B, 1), or a Python float when no gradient is needed). Head g = ``(U, bias)`` takes the g-th
-    equal share of the blocks and returns ``bias + [zc_s .. zc_e] U`` (Eq. 3.9, all U_k of a
-    layer in one product, the layer's bias folded in; a float gate is the product's ``alpha``,
-    ``U (g z) = g (U z)``, one kernel fewer). ``unbind`` rather than slicing keeps the backward
-    pass to one gather (no zero-filled copies).
-    """
-    r = w.shape[2] // 2
-    zc = F.glu(torch.baddbmm(b, feats, w), 2)
-    alpha = 1.0
-    if isinstance(gate, float):
-        alpha = gate
-    else:
-        zc = zc * gate
-    per = zc.shape[0] // len(heads)
-    if per == 1:
-        ms = zc.unbind(0)
-    else:
-        bsz = zc.shape[1]
-        ms = tuple(z.transpose(0, 1).reshape(bsz, per * r) for z in zc.split(per, 0))
-    return tuple(
-        torch.addmm(bias, m, u, alpha=alpha) for m, (u, bias) in zip(ms, heads, strict=True)
-    )
 
 
 class Column(nn.Module):
@@ -407,7 +358,7 @@ class ProgressiveNet(nn.Module):
                 out = ext.frozen_features_gated(
                     x, self._w1_frozen, self._b1_frozen, self._adw_frozen, self._adb_frozen,
                     self._blk_src, self._frozen_w2, self._frozen_b2, self._frozen_u2,
-                    self._ctxw_frozen_t, _EMPTY if states is None else states, upto,
+                    self._ctxw_frozen_t, NO_TENSOR if states is None else states, upto,
                 )  # fmt: skip
                 return (out,)
             h1, h2 = ext.frozen_features_pnn(

@@ -45,9 +45,11 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
+import torch
+
 from evodevo.errors import ConfigError
 
-__all__ = ["KERNELS", "load", "resolve", "SOURCE", "SOURCES"]
+__all__ = ["KERNELS", "NO_TENSOR", "load", "resolve", "SOURCE", "SOURCES"]
 
 #: Accepted values of ``network.lateral_kernel``.
 KERNELS = ("auto", "cpp", "torch")
@@ -77,6 +79,10 @@ def _build_name() -> str:
     for p in SOURCES:
         h.update(p.read_bytes())
     return f"evodevo_kernels_{h.hexdigest()[:10]}"
+
+
+#: "No tensor" for an optional argument of the C++ calls (no module states, no trained weights).
+NO_TENSOR = torch.empty(0)
 
 
 def load() -> ModuleType | None:
