@@ -252,7 +252,7 @@ def test_cmaes_killed_with_sigkill_then_resumed_ends_as_an_uninterrupted_run(tmp
     victim.wait(timeout=60)
     assert victim.returncode == -signal.SIGKILL, "the victim finished before it could be killed"
     done = len(_rows(tmp_path / "victim"))
-    assert 1 <= done < 5
+    assert done >= 1 and done < 5  # killed after a checkpoint, before the end
     resumed = _cli(tmp_path / "victim", "--resume")
     out = resumed.communicate(timeout=240)[0]
     assert resumed.returncode == 0, out
