@@ -104,3 +104,17 @@ def test_train_runs_a_named_sequence_and_refuses_both_tasks_and_sequence(tmp_pat
         ["train", "--tasks", "CartPole-v1", "--sequence", "cartpole-dynamics", "--out", str(out)],
     )
     assert both.exit_code != 0 and "give one of them" in str(both.exception)
+
+
+def test_tasks_with_parameters_are_normalised_against_their_own_random_policy() -> None:
+    """Forward transfer on a related sequence needs each task's anchors: the solved threshold of
+    its base id and a random policy measured in that very environment."""
+    from evodevo.evidence.normalise import solved_return, task_scale
+    from evodevo.neuromod.continual_metrics import scale_of
+
+    assert solved_return("evodevo/CartPole-v1[length=1.0]") == 475.0
+    long_pole = task_scale("evodevo/CartPole-v1[length=1.0]", episodes=50)
+    plain = task_scale("evodevo/CartPole-v1", episodes=50)
+    assert long_pole.random_return != plain.random_return  # another task, another anchor
+    assert scale_of("evodevo/CartPole-v1[length=1.0]", 500) is not None
+    assert scale_of("evodevo/CartPole-v1[length=1.0]", 200) is None  # another step limit

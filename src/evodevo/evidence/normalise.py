@@ -17,6 +17,7 @@ for returns (0.1 on the normalised scale) and ±5 points for success rates.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -24,6 +25,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from evodevo.envs.env_ids import parse_env_id
 from evodevo.errors import EvodevoError, env_module_error
 
 __all__ = [
@@ -106,9 +108,10 @@ class TaskScale:
 
 
 def _make(env_id: str, max_steps: int | None) -> gym.Env:
+    base, params = parse_env_id(env_id)  # ID[key=value,...]: the environment's own parameters
     kwargs: dict[str, Any] = {} if max_steps is None else {"max_episode_steps": int(max_steps)}
     try:
-        env = gym.make(env_id, **kwargs)
+        env = gym.make(base, **params, **kwargs)
     except gym.error.Error as exc:
         raise EvodevoError(
             f"unknown or unusable environment id {env_id!r} ({str(exc).splitlines()[0]}); "
@@ -167,14 +170,25 @@ def measure_random_return(
     return float(totals.mean())
 
 
+@functools.lru_cache(maxsize=64)
+def _measured(env_id: str, episodes: int, seed: int) -> float:
+    """:func:`measure_random_return`, once per process for each task (tables ask per run)."""
+    return measure_random_return(env_id, episodes, seed)
+
+
 def solved_return(env_id: str) -> float:
     """Gymnasium's ``reward_threshold`` of ``env_id``'s spec.
 
+    An id with parameters (``ID[key=value,...]``) has the threshold of its base id: the same
+    task with other dynamics.
+
     >>> solved_return("MountainCar-v0")
     -110.0
+    >>> solved_return("evodevo/CartPole-v1[length=1.0]")
+    475.0
     """
     try:
-        spec = gym.spec(env_id)
+        spec = gym.spec(parse_env_id(env_id)[0])
     except gym.error.Error as exc:
         raise EvodevoError(
             f"unknown environment id {env_id!r} ({str(exc).splitlines()[0]}); "
@@ -203,7 +217,7 @@ def task_scale(
     if random_return is None:
         random_return = RANDOM_RETURNS.get(env_id)
         if random_return is None:
-            random_return = measure_random_return(env_id, episodes, seed)
+            random_return = _measured(env_id, episodes, seed)
     return TaskScale(
         env_id, float(random_return), solved_return(env_id) if solved is None else float(solved)
     )

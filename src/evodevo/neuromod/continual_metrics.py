@@ -48,6 +48,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from evodevo.envs.env_ids import parse_env_id
 from evodevo.errors import EvodevoError
 from evodevo.evidence.normalise import TaskScale, solved_return, task_scale
 from evodevo.runs import RunDir
@@ -242,7 +243,7 @@ def scale_of(env_id: str, max_steps: int | None = None) -> TaskScale | None:
         solved = solved_return(env_id)
     except EvodevoError:
         return None
-    own = gym.spec(env_id).max_episode_steps
+    own = gym.spec(parse_env_id(env_id)[0]).max_episode_steps
     if max_steps is not None and own is not None and int(max_steps) != int(own):
         return None
     return task_scale(env_id, solved=solved)
