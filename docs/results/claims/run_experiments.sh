@@ -144,7 +144,21 @@ e5() {  # the module ablations beside E1's runs
   done
 }
 
-for e in "${@:-E1 E3A G1 G3 E2 E4 G2 E5}"; do
+e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0-5)
+  local src; src=$(code_at 9bb2eec)
+  local scale; scale=$("$py" docs/results/claims/choose_lateral_scale.py)  # analysis: this checkout's code
+  echo "E3: lateral scale $scale (phase A)"
+  for order in cartpole-dynamics cartpole-dynamics-reversed; do
+    for s in 0-1 2-3 4-5; do
+      compare "$src" --sequence "$order" --variants pnn,biarm,single \
+        --set "network.lateral_scale=$scale" --seeds "$s" --out "$out/transfer/$order"
+      compare "$src" --sequence "$order" --variants biarm --set modules.learning=learned \
+        --set "network.lateral_scale=$scale" --seeds "$s" --out "$out/transfer/$order-learned"
+    done
+  done
+}
+
+for e in "${@:-E1 E3A G1 G3 E2 E4 G2 E5 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
