@@ -228,3 +228,20 @@ def test_each_video_command_points_to_the_other_for_the_other_kind_of_run(evolve
         ["biarm", "video", str(evolved), "--task", "0", "--out", str(tmp_path / "b.gif")],
         "evodevo grn video",
     )
+
+
+def test_evaluate_takes_set_for_what_a_run_is_tested_on_only(evolved, tmp_path):
+    """``--set`` on a test: evaluation.* and env.* change what the run is tested on (their
+    files get a suffix, so the plain test is never overwritten); anything else is refused."""
+    import json
+
+    args = ["grn", "evaluate", str(evolved), "--objects", "train", "--no-baselines"]
+    res = runner.invoke(
+        app, [*args, "--test-episodes", "1", "--set", "env.kwargs.max_episode_steps=5", "--json"]
+    )
+    assert res.exit_code == 0, (res.output, res.exception)
+    result = json.loads(res.output.strip().splitlines()[-1])
+    assert result["overrides"] == {"env": {"kwargs": {"max_episode_steps": 5}}}
+    changed = sorted(p.name for p in evolved.glob("eval_train_0_set-*.json"))
+    assert len(changed) == 1 and result["mean_steps"] <= 5
+    _one_line_error([*args, "--set", "dynamics.dt=0.1"], "a test may change only")

@@ -9,6 +9,7 @@ from typing import Any
 
 import typer
 
+from evodevo.config import parse_sets
 from evodevo.errors import EvodevoError
 from evodevo.seeding import parse_seeds
 
@@ -66,6 +67,11 @@ def parse_list(text: str | None, option: str | None = None) -> list[str] | None:
 BACKEND_HELP = "local (in-process / process pool) or ray (Ray actors)."
 ADDRESS_HELP = "Ray cluster: auto or HOST:PORT (with --backend ray; default: a private local Ray)."
 
+
+TEST_SET_HELP = (
+    "Change what the run is tested on, e.g. --set env.kwargs.dark_after=1 (repeatable; "
+    "evaluation.* and env.* only; the result files get a suffix naming the change)."
+)
 
 SET_HELP = (
     "Override a config key, e.g. --set evolution.optimizer=cmaes or --set "
@@ -138,6 +144,7 @@ def add_evaluate_command(
         ),
         old_seed: int | None = typer.Option(None, "--seed", hidden=True, help=OLD_SEED_HELP),
         quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
+        set_: list[str] | None = typer.Option(None, "--set", help=TEST_SET_HELP),
     ) -> None:
         from evodevo.grn.evaluation import evaluate_run
         from evodevo.parallel import set_single_thread
@@ -163,6 +170,7 @@ def add_evaluate_command(
                 baselines_from,
                 backend=backend,
                 address=address,
+                overrides=parse_sets(set_),
             )
         if as_json:
             typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))

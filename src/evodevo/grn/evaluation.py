@@ -11,16 +11,19 @@ uniform-random policies run on the same seeds in the same call. It writes
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import importlib
-from collections.abc import Sequence
+import json
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from evodevo.config import from_dict, replace
-from evodevo.errors import EvodevoError
+from evodevo.config import from_dict, merge, replace, to_dict
+from evodevo.errors import ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import BASELINES, make_controller
 from evodevo.grn.encoder import Encoder
@@ -50,23 +53,45 @@ RUN_LOADERS: dict[str, str] = {"baseline": "evodevo.baselines.kuka_runner:load_r
 __all__ += ["RUN_LOADERS"]
 
 
-def load_run(path: str | Path) -> LoadedRun:
+#: The config sections a test of a trained run may change (``--set``): what it is tested on,
+#: never what was trained.
+TEST_SECTIONS = ("evaluation", "env")
+
+
+def test_overrides(config: GrnConfig, overrides: Mapping[str, Any] | None) -> GrnConfig:
+    """``config`` with ``overrides`` (``--set`` of a test) applied to :data:`TEST_SECTIONS`;
+    a key of another section is one :class:`ConfigError` naming it."""
+    if not overrides:
+        return config
+    for key in overrides:
+        if key not in TEST_SECTIONS:
+            raise ConfigError(
+                f"--set {key}.…: a test may change only "
+                f"{', '.join(s + '.*' for s in TEST_SECTIONS)}; {key} is what the run was "
+                "trained with"
+            )
+    return from_dict(GrnConfig, merge(to_dict(config), overrides))
+
+
+def load_run(path: str | Path, overrides: Mapping[str, Any] | None = None) -> LoadedRun:
     """Load ``config.json``, ``encoder.pt`` and ``best_genome.npz`` of a GRN run directory.
 
     A run of a kind in :data:`RUN_LOADERS` (e.g. a Kuka baseline) is loaded by its own loader,
-    with its policy in place of the genome, so it is tested by the same code.
+    with its policy in place of the genome, so it is tested by the same code. ``overrides``
+    change the test (:func:`test_overrides`).
     """
     run = RunDir(path, create=False)
     saved = run.read_config()
     if saved.get("kind") in RUN_LOADERS:
         module, _, attr = RUN_LOADERS[str(saved["kind"])].partition(":")
         loader = getattr(importlib.import_module(module), attr)
-        return loader(run, saved)  # type: ignore[no-any-return]
+        loaded: LoadedRun = loader(run, saved)
+        return dataclasses.replace(loaded, config=test_overrides(loaded.config, overrides))
     if saved.get("kind") != "grn":
         raise EvodevoError(
             f"{str(run.path)!r} holds a {saved.get('kind')!r} run, not a GRN run (evodevo grn evolve)"
         )
-    config = from_dict(GrnConfig, saved["config"])
+    config = test_overrides(from_dict(GrnConfig, saved["config"]), overrides)
     encoder = load_frontend(config, run.path)
     from evodevo.grn.evaluator import action_dims, make_env
 
@@ -94,9 +119,18 @@ def rate_dict(success: np.ndarray) -> dict[str, Any]:
     return asdict(r) | {"success_rate": r.rate}
 
 
-def eval_name(objects: str, noise: float) -> str:
-    """Base name of the evaluation files, e.g. ``eval_test_0`` or ``eval_test_0.03``."""
-    return f"eval_{objects}_{noise:g}"
+def eval_name(objects: str, noise: float, overrides: Mapping[str, Any] | None = None) -> str:
+    """Base name of the evaluation files, e.g. ``eval_test_0`` or ``eval_test_0.03``; a test
+    changed by ``--set`` adds a short digest of the changes (``eval_test_0_set-3f2a9c1b``).
+
+    >>> eval_name("test", 0.03)
+    'eval_test_0.03'
+    """
+    base = f"eval_{objects}_{noise:g}"
+    if not overrides:
+        return base
+    digest = hashlib.sha256(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
+    return f"{base}_set-{digest}"
 
 
 def _rows(policy: str, episodes: list[Episode], res: EpisodeResults) -> list[dict[str, Any]]:
@@ -126,6 +160,7 @@ def evaluate_run(
     baselines_from: str | Path | None = None,
     backend: str = "local",
     address: str | None = None,
+    overrides: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Test a run's best genome (SPEC §2.5) and save the result files; returns the result dict.
 
@@ -142,12 +177,15 @@ def evaluate_run(
             instead of running the trivial policies again.
         backend: "local" (process pool) or "ray" (Ray actors); the results are the same.
         address: Ray cluster ("auto" or HOST:PORT); None starts a private local Ray.
+        overrides: ``--set`` of the test, ``evaluation.*`` and ``env.*`` only
+            (:func:`test_overrides`); the result records them and its files get a suffix, so a
+            changed test never overwrites the plain one.
     """
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     if noise < 0:
         raise EvodevoError(f"--noise {noise} must be >= 0")
-    loaded = load_run(path)
+    loaded = load_run(path, overrides)
     cfg = loaded.config
     n = int(episodes if episodes is not None else cfg.evaluation.test_episodes)
     if n < 1:
@@ -193,9 +231,10 @@ def evaluate_run(
         "baselines": base,
         "env_steps": env_steps,
         "run": str(loaded.run.path),
+        **({"overrides": dict(overrides)} if overrides else {}),
         "machine": machine_info(),
     }
-    name = eval_name(objects, noise)
+    name = eval_name(objects, noise, overrides)
     write_json(loaded.run / f"{name}.json", result)
     loaded.run.write_csv(f"{name}_episodes.csv", rows)
     return result
