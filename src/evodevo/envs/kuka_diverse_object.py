@@ -55,9 +55,17 @@ from gymnasium.utils.seeding import np_random
 
 from evodevo.envs import kuka_arm
 from evodevo.envs.bullet import pybullet as p
-from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, WORKSPACE_X, WORKSPACE_Y, KukaArm
+from evodevo.envs.env_options import check_int, check_unit, positive
+from evodevo.envs.kuka_actions import DISCRETE_FREE, DISCRETE_HEIGHT_HACK, DV, parse_action
+from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, KukaArm
 from evodevo.envs.kuka_grasp import GRASP_CLOSE_STEPS, GRASP_LIFT_STEPS, grasp
 from evodevo.envs.objects import object_files
+from evodevo.envs.proprio import (
+    GRASP_HEIGHT,
+    PROPRIO_CENTRE,
+    PROPRIO_CLIP,
+    PROPRIO_HALF_RANGE,
+)
 from evodevo.envs.scene_cache import (
     CACHE_DIR_ENV,
     DEFAULT_MAX_ENTRIES,
@@ -66,6 +74,7 @@ from evodevo.envs.scene_cache import (
     scene_key,
     shared_cache,
 )
+from evodevo.envs.tray import DROP_HEIGHT, capture_scene, drop_objects, place_scene
 from evodevo.errors import ConfigError, EvodevoError
 
 __all__ = [
@@ -90,69 +99,10 @@ SOLVER_ITERATIONS = 150
 GRAVITY = -10.0
 #: Simulation steps after dropping each object, so that they fall one by one.
 SETTLE_STEPS = 500
-#: Drop height of the objects (m).
-DROP_HEIGHT = 0.15
-#: The automatic grasp starts when the end effector is at or below this height (m).
-GRASP_HEIGHT = 0.1
 #: Reward 1 when an object's base is above this height (m) after a step.
 SUCCESS_HEIGHT = 0.2
-#: End-effector displacement (m) per unit action; the gripper turns 0.25 rad per unit action.
-DV = 0.06
-DA = 0.25
-#: Start height of the end-effector target (m): the top of the height hack's descent.
-START_HEIGHT = 0.5
 #: Side (pixels) of the square image returned by ``render()`` in ``"rgb_array"`` mode.
 RENDER_SIZE = 256
-
-#: Proprioception ``(x, y, z, finger)`` is ``(raw - PROPRIO_CENTRE) / PROPRIO_HALF_RANGE``:
-#: x and y over the workspace clamp of the end-effector target ([0.50, 0.65] and [−0.17, 0.22] m),
-#: z over the height hack's descent from the start height 0.5 m to the grasp height 0.1 m, the
-#: finger opening (rad) over [0, 0.3] (shut .. open). Each maps to [−1, 1]; the measured pose can
-#: overshoot (z goes a little below −1 at the grasp, a large object can push the fingers open
-#: beyond 0.3 rad, without the height hack z is free), so the result is clipped to
-#: ±:data:`PROPRIO_CLIP`.
-PROPRIO_CENTRE = np.array(
-    [
-        0.5 * (WORKSPACE_X[0] + WORKSPACE_X[1]),
-        0.5 * (WORKSPACE_Y[0] + WORKSPACE_Y[1]),
-        0.5 * (START_HEIGHT + GRASP_HEIGHT),
-        0.5 * OPEN_FINGER_ANGLE,
-    ],
-    dtype=np.float64,
-)
-#: Bound of the normalised proprioception.
-PROPRIO_CLIP = 1.5
-PROPRIO_HALF_RANGE = np.array(
-    [
-        0.5 * (WORKSPACE_X[1] - WORKSPACE_X[0]),
-        0.5 * (WORKSPACE_Y[1] - WORKSPACE_Y[0]),
-        0.5 * (START_HEIGHT - GRASP_HEIGHT),
-        0.5 * OPEN_FINGER_ANGLE,
-    ],
-    dtype=np.float64,
-)
-
-# Discrete actions of the original: (dx, dy, dz, da) per index, dv and 0.25 rad units.
-_DISCRETE_HEIGHT_HACK = (
-    (0, 0, -1, 0),
-    (-1, 0, -1, 0),
-    (1, 0, -1, 0),
-    (0, -1, -1, 0),
-    (0, 1, -1, 0),
-    (0, 0, -1, -1),
-    (0, 0, -1, 1),
-)
-_DISCRETE_FREE = (
-    (0, 0, 0, 0),
-    (-1, 0, 0, 0),
-    (1, 0, 0, 0),
-    (0, -1, 0, 0),
-    (0, 1, 0, 0),
-    (0, 0, -1, 0),
-    (0, 0, 1, 0),
-    (0, 0, 0, -1),
-    (0, 0, 0, 1),
-)
 
 
 class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -244,13 +194,13 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         lateral_dv: float | None = None,
         dark_after: int | None = None,
     ) -> None:
-        _check_int("num_objects", num_objects, 1)
-        _check_int("max_steps", max_steps, 1)
-        _check_int("action_repeat", action_repeat, 1)
-        _check_int("width", width, 1)
-        _check_int("height", height, 1)
-        _check_int("rebuild_every", rebuild_every, 0)
-        _check_int("scene_cache_entries", scene_cache_entries, 1)
+        check_int("num_objects", num_objects, 1)
+        check_int("max_steps", max_steps, 1)
+        check_int("action_repeat", action_repeat, 1)
+        check_int("width", width, 1)
+        check_int("height", height, 1)
+        check_int("rebuild_every", rebuild_every, 0)
+        check_int("scene_cache_entries", scene_cache_entries, 1)
         if dark_after is not None and (
             isinstance(dark_after, bool)
             or not isinstance(dark_after, (int, np.integer))
@@ -266,8 +216,8 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         if not isinstance(skip_empty_lift, (bool, np.bool_)):
             raise ConfigError(f"skip_empty_lift={skip_empty_lift!r} must be true or false")
-        _check_unit("camera_random", camera_random)
-        _check_unit("block_random", block_random)
+        check_unit("camera_random", camera_random)
+        check_unit("block_random", block_random)
         if render_mode not in (None, "rgb_array"):
             raise ConfigError(
                 f"render_mode={render_mode!r} is not supported; use None or 'rgb_array'"
@@ -291,7 +241,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(0, 255, (self.height, self.width, 3), dtype=np.uint8)
         self.action_space: spaces.Space[Any]
         if self.is_discrete:
-            n = len(_DISCRETE_HEIGHT_HACK if self.height_hack else _DISCRETE_FREE)
+            n = len(DISCRETE_HEIGHT_HACK if self.height_hack else DISCRETE_FREE)
             self.action_space = spaces.Discrete(n)
         else:
             self.action_space = spaces.Box(
@@ -302,7 +252,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.rebuild_every = int(rebuild_every)
         self.skip_empty_lift = bool(skip_empty_lift)
         self.dark_after = None if dark_after is None else int(dark_after)
-        self.lateral_dv = DV if lateral_dv is None else _positive("lateral_dv", lateral_dv)
+        self.lateral_dv = DV if lateral_dv is None else positive("lateral_dv", lateral_dv)
         self.grasps = 0
         self.lifts_skipped = 0
         self.lift_steps_skipped = 0
@@ -440,9 +390,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self._fresh = False
         p.stepSimulation(physicsClientId=cid)
         settle = 0 if scene is not None else SETTLE_STEPS
-        self._object_uids = _drop(cid, files, poses, settle)
+        self._object_uids = drop_objects(cid, files, poses, settle)
         if scene is not None:
-            _place(cid, self._object_uids, self._arm.uid, scene)
+            place_scene(cid, self._object_uids, self._arm.uid, scene)
         self._ready = True
         return self._observation(), {"proprio": self._proprio(), "is_success": False}
 
@@ -492,9 +442,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         cid, arm = self._new_world()
         try:
             p.stepSimulation(physicsClientId=cid)
-            uids = _drop(cid, files, poses, SETTLE_STEPS)
+            uids = drop_objects(cid, files, poses, SETTLE_STEPS)
             rel = tuple(obj[0] for obj in key["objects"])
-            scene = _capture(cid, uids, arm.uid, rel, poses, seed)
+            scene = capture_scene(cid, uids, arm.uid, rel, poses, seed)
         finally:
             p.disconnect(cid)
         if seed is not None:
@@ -561,40 +511,9 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             raise EvodevoError("this KukaDiverseObjectEnv is closed; make a new one")
 
     def _parse_action(self, action: Any) -> tuple[float, float, float, float]:
-        if self.is_discrete:
-            if isinstance(action, np.ndarray) and action.shape == ():
-                action = action.item()
-            n = int(self.action_space.n)  # type: ignore[attr-defined]
-            if not isinstance(action, (int, np.integer)) or not 0 <= int(action) < n:
-                raise EvodevoError(
-                    f"discrete action must be an integer in [0, {n}), got {action!r}"
-                )
-            table = _DISCRETE_HEIGHT_HACK if self.height_hack else _DISCRETE_FREE
-            ux, uy, uz, ua = table[int(action)]
-            return self.lateral_dv * ux, self.lateral_dv * uy, DV * uz, DA * ua
-        shape = self.action_space.shape
-        try:
-            a = np.asarray(action)
-            if a.dtype not in (np.float32, np.float64):
-                a = a.astype(np.float64)
-        except (TypeError, ValueError) as exc:
-            raise EvodevoError(
-                f"action must be numeric with shape {shape}, got {action!r}"
-            ) from exc
-        if a.shape != shape:
-            raise EvodevoError(
-                f"action has shape {a.shape}, expected {shape} "
-                f"({'dx, dy, d-angle' if self.height_hack else 'dx, dy, dz, d-angle'})"
-            )
-        if not np.all(np.isfinite(a)):
-            raise EvodevoError(f"action must be finite, got {a.tolist()}")
-        # NumPy scalars in the action's own precision, as in the original (NumPy 2 keeps float32
-        # for ``0.06 * float32`` and for the arm's target after adding it), so that float32
-        # actions give the same numbers as there.
-        a = np.clip(a, -1.0, 1.0)
-        if self.height_hack:
-            return self.lateral_dv * a[0], self.lateral_dv * a[1], -DV, DA * a[2]
-        return self.lateral_dv * a[0], self.lateral_dv * a[1], DV * a[2], DA * a[3]
+        return parse_action(
+            action, self.action_space, self.is_discrete, self.height_hack, self.lateral_dv
+        )
 
     def _grasp(self) -> None:
         """Close the fingers for 500 steps, then lift for 500 (:func:`kuka_grasp.grasp`)."""
@@ -660,81 +579,3 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         # At interpreter shutdown pybullet may already be torn down.
         with contextlib.suppress(Exception):
             self.close()
-
-
-def _drop(
-    cid: int, files: list[str], poses: list[tuple[float, float, float]], settle_steps: int
-) -> list[int]:
-    """Load the objects at their drop poses, one by one, each followed by ``settle_steps`` steps."""
-    uids = []
-    for path, (x, y, angle) in zip(files, poses, strict=True):
-        orn = p.getQuaternionFromEuler([0, 0, angle])
-        uid = p.loadURDF(
-            path, basePosition=[x, y, DROP_HEIGHT], baseOrientation=orn, physicsClientId=cid
-        )
-        uids.append(uid)
-        for _ in range(settle_steps):
-            p.stepSimulation(physicsClientId=cid)
-    return uids
-
-
-def _capture(
-    cid: int,
-    uids: list[int],
-    arm_uid: int,
-    files: tuple[str, ...],
-    poses: list[tuple[float, float, float]],
-    seed: int | None,
-) -> SettledScene:
-    """Read the settled state of every object and arm joint (see :class:`SettledScene`)."""
-    objects = np.empty((len(uids), 13), dtype=np.float64)
-    for i, uid in enumerate(uids):
-        pos, orn = p.getBasePositionAndOrientation(uid, physicsClientId=cid)
-        lin, ang = p.getBaseVelocity(uid, physicsClientId=cid)
-        objects[i] = (*pos, *orn, *lin, *ang)
-    n = p.getNumJoints(arm_uid, physicsClientId=cid)
-    states = p.getJointStates(arm_uid, list(range(n)), physicsClientId=cid)
-    return SettledScene(
-        files=files,
-        poses=np.asarray(poses, dtype=np.float64),
-        objects=objects,
-        arm_q=np.array([s[0] for s in states], dtype=np.float64),
-        arm_qd=np.array([s[1] for s in states], dtype=np.float64),
-        seed=seed,
-    )
-
-
-def _place(cid: int, uids: list[int], arm_uid: int, scene: SettledScene) -> None:
-    """Write a settled scene's state into freshly dropped objects and the arm."""
-    for uid, row in zip(uids, scene.objects, strict=True):
-        vals = row.tolist()
-        p.resetBasePositionAndOrientation(uid, vals[0:3], vals[3:7], physicsClientId=cid)
-        p.resetBaseVelocity(uid, vals[7:10], vals[10:13], physicsClientId=cid)
-    for j, (q, qd) in enumerate(zip(scene.arm_q.tolist(), scene.arm_qd.tolist(), strict=True)):
-        p.resetJointState(arm_uid, j, q, targetVelocity=qd, physicsClientId=cid)
-
-
-def _check_int(name: str, value: Any, low: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise ConfigError(f"{name}={value!r} must be an integer >= {low}")
-
-
-def _positive(name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = math.nan
-    if isinstance(value, bool) or not 0.0 < v < math.inf:
-        raise ConfigError(
-            f"{name}={value!r} must be a positive number of metres per unit action, or null"
-        )
-    return v
-
-
-def _check_unit(name: str, value: Any) -> None:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"{name}={value!r} must be a number in [0, 1]") from exc
-    if not 0.0 <= v <= 1.0:
-        raise ConfigError(f"{name}={value!r} must lie in [0, 1]")
