@@ -205,6 +205,19 @@ def _grn_run_steps(
             resume_if=rdir / "config.json",
         )
     )
+    steps += _grn_test_steps(cfg, out, label, seed, rdir)
+    if label in g.controllers:
+        late += _grn_study_steps(cfg, label, seed, rdir)
+    return steps, late
+
+
+def _grn_test_steps(
+    cfg: ReproduceConfig, out: Path, label: str, seed: int, rdir: Path
+) -> list[Step]:
+    """The test calls of one evolution, each capturing its JSON result."""
+    g = cfg.grn
+    w = str(cfg.workers)
+    steps: list[Step] = []
     # A noisy evaluation also runs the clean test and the trivial policies on the same
     # seeds (evodevo.grn.evaluation), so a controller needs one test call, not two.
     if label in g.controllers:
@@ -238,34 +251,41 @@ def _grn_run_steps(
                 capture_json=rdir / f"repro_{tag}.json",
             )
         )
-    if label in g.controllers:
-        # the neuromodulated GRN: one ablation per modulator (SPEC §5); else the nine
-        # ablations of SPEC §2.5, which apply to plain GRN genomes only
-        modulated = label == "neuromodulated"
-        late.append(
-            Step(
-                f"grn-ablate-{label}-s{seed}",
-                [
-                    "grn",
-                    "ablate",
-                    str(rdir),
-                    "--test-episodes",
-                    str(g.ablation_episodes),
-                    "--workers",
-                    w,
-                    *(["--modulators"] if modulated else []),
-                ],
-                [rdir / ("modulator_ablations.csv" if modulated else "ablations.csv")],
-            )
+    return steps
+
+
+def _grn_study_steps(cfg: ReproduceConfig, label: str, seed: int, rdir: Path) -> list[Step]:
+    """A studied controller's ablations and plots (they run after every evolution and test)."""
+    g = cfg.grn
+    w = str(cfg.workers)
+    late: list[Step] = []
+    # the neuromodulated GRN: one ablation per modulator (SPEC §5); else the nine
+    # ablations of SPEC §2.5, which apply to plain GRN genomes only
+    modulated = label == "neuromodulated"
+    late.append(
+        Step(
+            f"grn-ablate-{label}-s{seed}",
+            [
+                "grn",
+                "ablate",
+                str(rdir),
+                "--test-episodes",
+                str(g.ablation_episodes),
+                "--workers",
+                w,
+                *(["--modulators"] if modulated else []),
+            ],
+            [rdir / ("modulator_ablations.csv" if modulated else "ablations.csv")],
         )
-        late.append(
-            Step(
-                f"grn-plot-{label}-s{seed}",
-                ["grn", "plot", str(rdir)],
-                [rdir / "figures" / "expression_trace.png"],
-            )
+    )
+    late.append(
+        Step(
+            f"grn-plot-{label}-s{seed}",
+            ["grn", "plot", str(rdir)],
+            [rdir / "figures" / "expression_trace.png"],
         )
-    return steps, late
+    )
+    return late
 
 
 def _kuka_steps(cfg: ReproduceConfig, out: Path) -> list[Step]:
