@@ -181,17 +181,10 @@ def evaluate_run(
             (:func:`test_overrides`); the result records them and its files get a suffix, so a
             changed test never overwrites the plain one.
     """
-    if objects not in ("test", "train"):
-        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
-    if noise < 0:
-        raise EvodevoError(f"--noise {noise} must be >= 0")
+    _check_test(objects, noise, episodes)
     loaded = load_run(path, overrides)
     cfg = loaded.config
     n = int(episodes if episodes is not None else cfg.evaluation.test_episodes)
-    if n < 1:
-        raise EvodevoError(
-            f"--test-episodes {n} must be at least 1 (the number of fixed test episodes)"
-        )
     test_seed = int(seed if seed is not None else cfg.evaluation.test_seed)
     is_test = objects == "test"
     clean_eps = test_episodes(test_seed, n, is_test)
@@ -219,18 +212,11 @@ def evaluate_run(
     summary = rate_dict(main.success[0])
     result = {
         **{k: summary[k] for k in ("success_rate", "ci_low", "ci_high", "successes")},
-        "episodes": n,
-        "objects": objects,
-        "noise": float(noise),
-        "test_seed": test_seed,
-        "seed_range": range_label(test_seed),
-        "controller": loaded.kind,
-        "blind": cfg.sensors.blind,
+        **_test_facts(loaded, n, objects, noise, test_seed),
         "mean_steps": float(main.steps.mean()),
         **out,
         "baselines": base,
         "env_steps": env_steps,
-        "run": str(loaded.run.path),
         **({"overrides": dict(overrides)} if overrides else {}),
         "machine": machine_info(),
     }
@@ -238,6 +224,34 @@ def evaluate_run(
     write_json(loaded.run / f"{name}.json", result)
     loaded.run.write_csv(f"{name}_episodes.csv", rows)
     return result
+
+
+def _test_facts(
+    loaded: LoadedRun, n: int, objects: str, noise: float, test_seed: int
+) -> dict[str, Any]:
+    """What a test result says about its episodes and the run it tested."""
+    return {
+        "episodes": n,
+        "objects": objects,
+        "noise": float(noise),
+        "test_seed": test_seed,
+        "seed_range": range_label(test_seed),
+        "controller": loaded.kind,
+        "blind": loaded.config.sensors.blind,
+        "run": str(loaded.run.path),
+    }
+
+
+def _check_test(objects: str, noise: float, episodes: int | None) -> None:
+    """One clear error for a test option out of range, before anything is loaded."""
+    if objects not in ("test", "train"):
+        raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    if noise < 0:
+        raise EvodevoError(f"--noise {noise} must be >= 0")
+    if episodes is not None and episodes < 1:
+        raise EvodevoError(
+            f"--test-episodes {episodes} must be at least 1 (the number of fixed test episodes)"
+        )
 
 
 KUKA_ID = "evodevo/KukaDiverseObject-v0"
