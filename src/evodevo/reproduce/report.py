@@ -208,31 +208,7 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         "run on the same seeds.",
         "",
     ]
-    main_rows = []
-    saved: list[dict[str, Any]] = []
-    test_seeds: set[int] = set()
-    for c in g.controllers:
-        for s in parse_seeds(g.seeds):
-            rdir = gdir / f"{c}_s{s}"
-            t = load_json(rdir / "repro_test_noisy.json")
-            tr = load_json(rdir / "repro_train_clean.json")
-            summ = load_json(rdir / "summary.json") or {}
-            if t is None:
-                continue
-            clean = t.get("clean", t)
-            zero = t["baselines"].get("zero")
-            rnd = t["baselines"].get("random")
-            conf = load_json(rdir / "config.json")
-            if conf is not None:
-                saved.append(conf)
-            if "test_seed" in t:
-                test_seeds.add(int(t["test_seed"]))
-            main_rows.append(
-                f"| {c} | {s} | {summ.get('generations_run', '?')} | {pct(clean)} | {pct(t)} | "
-                f"{(t.get('retention') or 0) * 100:.1f} % | {pct(tr) if tr else 'n/a'} | "
-                f"{pct(zero) if zero else 'n/a'} | {pct(rnd) if rnd else 'n/a'} | "
-                f"{describe_rule(conf, summ) if conf is not None else '—'} |"
-            )
+    main_rows, saved, test_seeds = _test_rows(gdir, g)
     if not main_rows:
         return lines + ["(no GRN results: the GRN part was not run or did not finish)", ""]
     ranges = ", ".join(f"first seed {t} ({range_label(t)} range)" for t in sorted(test_seeds))
@@ -271,33 +247,7 @@ def grn_section(out: Path, cfg: ReproduceConfig) -> list[str]:
         lines += _controls_block(gdir, g, "vision", specs, ", the vision preset")
     lines.append("")
     for c in g.controllers:
-        s0 = parse_seeds(g.seeds)[0]
-        dirs = {s: gdir / f"{c}_s{s}" for s in parse_seeds(g.seeds)}
-        for name, title in (
-            ("ablations", "Ablations (thesis Section 4.7)"),
-            ("modulator_ablations", "Modulator ablations (SPEC §5: each gamma set to 0)"),
-        ):
-            tables = read_ablation_tables(dirs, f"{name}.json")
-            if not tables:
-                continue
-            links = ", ".join(
-                f"[seed {s}]({(dirs[s] / f'{name}.md').relative_to(out)})" for s in tables
-            )
-            lines += [
-                f"### {title}, {c}, seeds {', '.join(map(str, tables))}",
-                "",
-                pooled_ablations_markdown(pool_ablations(tables)).strip(),
-                "",
-                f"Each seed's own table (with Fisher and Holm-adjusted McNemar p): {links}.",
-                "",
-            ]
-        figs = sorted((gdir / f"{c}_s{s0}" / "figures").glob("*.png"))
-        if figs:
-            lines += (
-                [f"### Figures, {c} seed {s0}", ""]
-                + [f"![{f.stem}]({f.relative_to(out)})" for f in figs]
-                + [""]
-            )
+        lines += _ablations_and_figures(out, gdir, g, c)
     return lines
 
 
@@ -394,6 +344,71 @@ def _controls_block(
             f"(Fisher p = {p:.3g})."
         )
     return lines + [""]
+
+
+def _test_rows(gdir: Path, g: GrnBudget) -> tuple[list[str], list[dict[str, Any]], set[int]]:
+    """One table row per tested evolution (clean, noisy, training objects, trivial policies,
+    return rule), the evolutions' saved configs and the test seeds they used."""
+    main_rows = []
+    saved: list[dict[str, Any]] = []
+    test_seeds: set[int] = set()
+    for c in g.controllers:
+        for s in parse_seeds(g.seeds):
+            rdir = gdir / f"{c}_s{s}"
+            t = load_json(rdir / "repro_test_noisy.json")
+            tr = load_json(rdir / "repro_train_clean.json")
+            summ = load_json(rdir / "summary.json") or {}
+            if t is None:
+                continue
+            clean = t.get("clean", t)
+            zero = t["baselines"].get("zero")
+            rnd = t["baselines"].get("random")
+            conf = load_json(rdir / "config.json")
+            if conf is not None:
+                saved.append(conf)
+            if "test_seed" in t:
+                test_seeds.add(int(t["test_seed"]))
+            main_rows.append(
+                f"| {c} | {s} | {summ.get('generations_run', '?')} | {pct(clean)} | {pct(t)} | "
+                f"{(t.get('retention') or 0) * 100:.1f} % | {pct(tr) if tr else 'n/a'} | "
+                f"{pct(zero) if zero else 'n/a'} | {pct(rnd) if rnd else 'n/a'} | "
+                f"{describe_rule(conf, summ) if conf is not None else '—'} |"
+            )
+    return main_rows, saved, test_seeds
+
+
+def _ablations_and_figures(out: Path, gdir: Path, g: GrnBudget, c: str) -> list[str]:
+    """Controller ``c``'s ablations pooled over its seeds (with a link to each seed's table)
+    and the figures of its first seed."""
+    lines: list[str] = []
+    s0 = parse_seeds(g.seeds)[0]
+    dirs = {s: gdir / f"{c}_s{s}" for s in parse_seeds(g.seeds)}
+    for name, title in (
+        ("ablations", "Ablations (thesis Section 4.7)"),
+        ("modulator_ablations", "Modulator ablations (SPEC §5: each gamma set to 0)"),
+    ):
+        tables = read_ablation_tables(dirs, f"{name}.json")
+        if not tables:
+            continue
+        links = ", ".join(
+            f"[seed {s}]({(dirs[s] / f'{name}.md').relative_to(out)})" for s in tables
+        )
+        lines += [
+            f"### {title}, {c}, seeds {', '.join(map(str, tables))}",
+            "",
+            pooled_ablations_markdown(pool_ablations(tables)).strip(),
+            "",
+            f"Each seed's own table (with Fisher and Holm-adjusted McNemar p): {links}.",
+            "",
+        ]
+    figs = sorted((gdir / f"{c}_s{s0}" / "figures").glob("*.png"))
+    if figs:
+        lines += (
+            [f"### Figures, {c} seed {s0}", ""]
+            + [f"![{f.stem}]({f.relative_to(out)})" for f in figs]
+            + [""]
+        )
+    return lines
 
 
 def _test_rate(t: dict[str, Any]) -> float:
