@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from evodevo.reproduce.budget import GrnBudget
-from evodevo.reproduce.report import run_level_block
+from evodevo.reproduce.grn_controls import run_level_block
 
 
 def _test(path: Path, successes: int, n: int = 100) -> None:
