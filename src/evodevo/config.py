@@ -37,6 +37,7 @@ __all__ = [
     "replace",
     "parse_sets",
     "resolve",
+    "read_yaml",
 ]
 
 T = TypeVar("T")
@@ -170,13 +171,13 @@ def load_config(
     cls: type[T], path: str | Path | None = None, overrides: Mapping[str, Any] | None = None
 ) -> T:
     """Load ``cls`` from a YAML file (optional) and then apply ``overrides`` (nested dicts merge)."""
-    data = _read_yaml(path) if path is not None else {}
+    data = read_yaml(path) if path is not None else {}
     if overrides:
         data = merge(data, overrides)
     return from_dict(cls, data)
 
 
-def _read_yaml(path: str | Path, what: str = "config file") -> dict[str, Any]:
+def read_yaml(path: str | Path, what: str = "config file") -> dict[str, Any]:
     """The mapping in YAML file ``path`` (empty file: ``{}``); one clear error otherwise."""
     p = Path(path)
     if not p.is_file():
@@ -241,7 +242,7 @@ def resolve(
     >>> resolve(C, preset={"lr": 0.1, "batch": 8}, sets=["lr=0.5"], flags={"batch": None})
     C(lr=0.5, batch=8)
     """
-    data = merge(dict(preset or {}), _read_yaml(path) if path is not None else {})
+    data = merge(dict(preset or {}), read_yaml(path) if path is not None else {})
     data = merge(data, parse_sets(sets))
     data = merge(data, _without_none(flags or {}))
     return from_dict(cls, data)

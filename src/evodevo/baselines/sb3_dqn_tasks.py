@@ -76,12 +76,10 @@ from stable_baselines3.common.logger import Logger
 
 from evodevo.baselines.sb3_files import MODEL_SUFFIX, load_sb3_policy, save_sb3
 from evodevo.callbacks import Callback
-from evodevo.config import to_dict
-from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, greedy_returns, task_record
 from evodevo.neuromod.keep_best import BestColumn
-from evodevo.neuromod.resume import check_resume
+from evodevo.neuromod.resume import open_run
 from evodevo.neuromod.tasks import TaskSpec, make_env, resolve_tasks
 from evodevo.neuromod.trainer import METRIC_FIELDS, NEUROMOD_FIELDS, EpisodeInfo, resume_hint
 from evodevo.neuromod.variants import Variant
@@ -345,17 +343,9 @@ def train_sb3_tasks(
     """Train one SB3 DQN per task into ``out``; the arguments and the returned summary are
     those of :func:`evodevo.neuromod.trainer.train`."""
     specs, d_max = resolve_tasks(cfg)
-    run = RunDir(out)
+    started = (Path(out) / "checkpoints" / PROGRESS_FILE).is_file()
+    run = open_run(cfg, variant, seed, out, resume, started)
     progress_path = run.checkpoints / PROGRESS_FILE
-    if progress_path.is_file() and not resume:
-        raise EvodevoError(
-            f"{str(run.path)!r} already holds checkpoints of a run; pass --resume to continue "
-            "it or choose another --out"
-        )
-    if resume and (run / "config.json").is_file():
-        check_resume(run, variant, seed, cfg)
-    else:
-        run.write_config({"variant": variant.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
     results: list[dict[str, Any]] = []
     step = 0
     before = None  # the time of earlier sessions, for a resumed run

@@ -26,9 +26,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from evodevo.config import from_dict, to_dict
+from evodevo.config import from_dict, read_yaml, to_dict
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig, TaskConfig
 from evodevo.neuromod.variants import get_variant
@@ -117,15 +116,7 @@ class SweepSpec:
     @classmethod
     def load(cls, path: str | Path) -> SweepSpec:
         """Read ``configs/biarm_sweep.yaml``-style YAML (errors name the file and line)."""
-        p = Path(path)
-        if not p.is_file():
-            raise ConfigError(f"sweep file {str(p)!r} does not exist; pass an existing YAML file")
-        try:
-            data = yaml.safe_load(p.read_text())
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"sweep file {str(p)!r} is not valid YAML: {exc}") from None
-        if not isinstance(data, Mapping):
-            raise ConfigError(f"sweep file {str(p)!r} must hold a mapping of keys")
+        data = read_yaml(path, what="sweep file")
         return cls.from_dict(data)
 
     def select(

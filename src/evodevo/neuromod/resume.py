@@ -7,14 +7,16 @@ config after older runs were saved, filled in as those runs ran.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from evodevo.config import to_dict
+from evodevo.errors import EvodevoError
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.variants import Variant
 from evodevo.runs import RunDir
 
-__all__ = ["ADDED_KEYS", "saved_config", "check_resume"]
+__all__ = ["ADDED_KEYS", "saved_config", "check_resume", "open_run"]
 
 
 #: keys added to the config after runs were saved without them -> the value those runs ran with
@@ -55,3 +57,22 @@ def check_resume(run: RunDir, variant: Variant, seed: int, cfg: BiarmConfig) -> 
     if variant.modulated:  # the modules' settings change nothing in PNN, fine-tuning or EWC
         keys.append("modules")
     run.check_same_config(mine, keys, theirs)
+
+
+def open_run(
+    cfg: BiarmConfig, variant: Variant, seed: int, out: str | Path, resume: bool, started: bool
+) -> RunDir:
+    """The run folder of a BIARM run (the trainer's and SB3's DQN per task): a new run writes
+    its config and refuses a folder that already holds a started run (``started``: it has
+    checkpoints); a resumed one must match the saved config (:func:`check_resume`)."""
+    run = RunDir(out)
+    if started and not resume:
+        raise EvodevoError(
+            f"{str(run.path)!r} already holds checkpoints of a run; pass --resume to continue "
+            "it or choose another --out"
+        )
+    if resume and (run / "config.json").is_file():
+        check_resume(run, variant, seed, cfg)
+    else:
+        run.write_config({"variant": variant.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
+    return run

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 
 from evodevo.callbacks import Callback
-from evodevo.config import from_dict, to_dict
-from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.config import from_dict
+from evodevo.errors import CheckpointError
 from evodevo.neuromod.agent import BiarmAgent
 from evodevo.neuromod.checkpoint import (
     ResumePoint,
@@ -44,7 +44,7 @@ from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.evaluation import eval_seeds, evaluate_column, task_record
 from evodevo.neuromod.forgetting import record_returns_after
 from evodevo.neuromod.keep_best import VALIDATION_FIELDS
-from evodevo.neuromod.resume import check_resume, saved_config
+from evodevo.neuromod.resume import open_run, saved_config
 from evodevo.neuromod.task_runner import (
     METRIC_FIELDS,
     NEUROMOD_FIELDS,
@@ -211,17 +211,8 @@ def _open_run(
     """Check the tasks, open the run folder and its newest checkpoint; a new run writes its
     config, a resumed one must match the saved config."""
     specs, d_max = resolve_tasks(cfg)
-    run = RunDir(out)
-    point = latest_resume_point(run.path / "checkpoints")
-    if point is not None and not resume:
-        raise EvodevoError(
-            f"{str(run.path)!r} already holds checkpoints of a run; pass --resume to continue "
-            "it or choose another --out"
-        )
-    if resume and (run / "config.json").is_file():
-        check_resume(run, var, seed, cfg)
-    else:
-        run.write_config({"variant": var.name, "seed": seed, **to_dict(cfg)}, kind="biarm")
+    point = latest_resume_point(Path(out) / "checkpoints")
+    run = open_run(cfg, var, seed, out, resume, started=point is not None)
     return run, specs, d_max, point
 
 
