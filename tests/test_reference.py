@@ -18,7 +18,7 @@ def _leaf_commands(cmd, path):
 
 
 def test_cli_reference_lists_every_command_and_option():
-    md = cli_markdown()
+    md = cli_markdown(app)
     root = typer.main.get_command(app)
     leaves = list(_leaf_commands(root, ["evodevo"]))
     assert "evodevo biarm train" in leaves and "evodevo grn evolve" in leaves

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from evodevo.cli import app
 from evodevo.cli.reference import cli_markdown, config_markdown
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -14,7 +15,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 @pytest.mark.parametrize(
     ("name", "render", "command"),
     [
-        ("cli.md", cli_markdown, "evodevo reference cli > docs/cli.md"),
+        ("cli.md", lambda: cli_markdown(app), "evodevo reference cli > docs/cli.md"),
         ("configuration.md", config_markdown, "evodevo reference config > docs/configuration.md"),
     ],
 )

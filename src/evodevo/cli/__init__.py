@@ -12,6 +12,8 @@ import sys
 
 import typer
 
+from evodevo import __version__
+from evodevo.cli import baselines, biarm, compare, grn, reference, reproduce
 from evodevo.errors import EvodevoError
 
 __all__ = ["app", "main"]
@@ -28,8 +30,6 @@ app = typer.Typer(
 
 def _show_version(value: bool) -> None:
     if value:
-        from evodevo import __version__
-
         typer.echo(f"evodevo {__version__}")
         raise typer.Exit()
 
@@ -47,18 +47,12 @@ def _root(
     """Evolutionary developmental robotics: BIARM and GRN controllers, with honest baselines."""
 
 
-def _register() -> None:
-    from evodevo.cli import baselines, biarm, compare, grn, reference, reproduce
-
-    app.add_typer(biarm.app, name="biarm")
-    app.add_typer(grn.app, name="grn")
-    app.add_typer(baselines.app, name="baselines")
-    app.add_typer(compare.app, name="compare")
-    app.command("reproduce")(reproduce.reproduce)
-    app.add_typer(reference.app, name="reference")
-
-
-_register()
+app.add_typer(biarm.app, name="biarm")
+app.add_typer(grn.app, name="grn")
+app.add_typer(baselines.app, name="baselines")
+app.add_typer(compare.app, name="compare")
+app.command("reproduce")(reproduce.reproduce)
+app.add_typer(reference.app, name="reference")
 
 
 def main(argv: list[str] | None = None) -> None:
