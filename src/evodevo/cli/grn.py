@@ -10,10 +10,12 @@ import contextlib
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+import gymnasium as gym
 import typer
 
+import evodevo
 from evodevo.callbacks import Callback
 from evodevo.cli.common import (
     ADDRESS_HELP,
@@ -30,12 +32,27 @@ from evodevo.cli.common import (
     parse_list,
     renamed,
 )
-from evodevo.config import parse_sets
+from evodevo.config import load_config, merge, parse_sets, to_dict
 from evodevo.errors import EvodevoError
-from evodevo.runs import run_kind
-
-if TYPE_CHECKING:
-    from evodevo.grn.config import GrnConfig
+from evodevo.grn.ablations import run_ablations
+from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.evaluation import evaluate_baselines
+from evodevo.grn.evaluation import test_episodes as fixed_test_episodes
+from evodevo.grn.evaluator import action_dims, is_vector_observation, make_env
+from evodevo.grn.evolution import evolve_run
+from evodevo.grn.figures import plot_ablations, plot_run
+from evodevo.grn.frontends import frontend_dim
+from evodevo.grn.neuromodulated import (
+    MODULATOR_TRACE_FILE,
+    record_modulator_trace,
+    run_modulator_ablations,
+)
+from evodevo.grn.recording import TRACE_FILE, record_trace
+from evodevo.parallel import set_single_thread
+from evodevo.progress import CommandProgress, GenerationBar
+from evodevo.runs import RunDir, read_json, run_kind
+from evodevo.tensorboard import GenerationScalars
+from evodevo.video import film_episode, save_frames
 
 __all__ = ["app"]
 
@@ -104,11 +121,6 @@ def _env_overrides(env_id: str, cfg: GrnConfig) -> dict[str, Any]:
     front-end calibration and no simulator shaping); an RGB image goes through the config's
     front-end as for the Kuka env. The actions' size and bounds are read by the evaluator.
     """
-    import gymnasium as gym
-
-    from evodevo.grn.evaluator import action_dims, is_vector_observation, make_env
-    from evodevo.grn.frontends import frontend_dim
-
     same = env_id == cfg.env.id
     kwargs = dict(cfg.env.kwargs) if same else {}
     env = make_env(env_id, kwargs)
@@ -136,92 +148,99 @@ def _env_overrides(env_id: str, cfg: GrnConfig) -> dict[str, Any]:
     return out
 
 
+_FINAL_PICK_HELP = (
+    "Re-select the final genome among the last elites on this many fresh episodes "
+    "each (evolution.final_pick_episodes; 0 = off) [the config's]."
+)
+_KEEP_HELP = (
+    "Which genome the run returns: last (the last generation's best), record (the "
+    "champion by lifetime success record) or validated (each generation's best scored on "
+    "evaluation.validation_episodes validation episodes, the most successes kept); "
+    "evolution.keep [the config's: record in the vision preset, last in the thesis preset]."
+)
+_OPTIMIZER_HELP = (
+    "ga (Algorithm 3, the thesis) or cmaes (CMA-ES on the genome as a vector; section "
+    "cmaes); evolution.optimizer [the config's: ga]."
+)
+_CONFIG_HELP = (
+    "YAML config; keys it leaves out take the thesis defaults (configs/grn.yaml). "
+    "Without it, --preset."
+)
+_PRESET_HELP = (
+    "Without --config: vision (configs/grn_vision.yaml: blob front-end, substeps, shaped "
+    "training fitness) or thesis (configs/grn.yaml, the thesis protocol)."
+)
+_ENV_HELP = (
+    "Any Gymnasium env with a Box observation (a vector or an RGB image) and Box "
+    "actions; sensor and action sizes come from its spaces [the config's env.id]."
+)
+_CONTROLLER_HELP = "Controller kind: plain, neuromodulated, open_loop, linear, mlp [plain]."
+_RESUME_HELP = (
+    "Continue an interrupted run in --out; with a larger --generations, extend a "
+    "finished one (what a larger budget buys)."
+)
+_EVOLVE_TENSORBOARD_HELP = (
+    "Also write history.csv's numbers as TensorBoard scalars into this folder."
+)
+
+
 @app.command()
 def evolve(
     out: Path = typer.Option(..., "--out", help="Run directory (created)."),
     population: int | None = typer.Option(None, help="Genomes per generation [12]."),
     generations: int | None = typer.Option(None, help="Maximum generations [15]."),
     episodes: int | None = typer.Option(None, help="Episodes per evaluation [10]."),
-    final_pick: int | None = typer.Option(
-        None,
-        help="Re-select the final genome among the last elites on this many fresh episodes "
-        "each (evolution.final_pick_episodes; 0 = off) [the config's].",
-    ),
-    keep: str | None = typer.Option(
-        None,
-        help="Which genome the run returns: last (the last generation's best), record (the "
-        "champion by lifetime success record) or validated (each generation's best scored on "
-        "evaluation.validation_episodes validation episodes, the most successes kept); "
-        "evolution.keep [the config's: record in the vision preset, last in the thesis preset].",
-    ),
-    optimizer: str | None = typer.Option(
-        None,
-        help="ga (Algorithm 3, the thesis) or cmaes (CMA-ES on the genome as a vector; section "
-        "cmaes); evolution.optimizer [the config's: ga].",
-    ),
+    final_pick: int | None = typer.Option(None, help=_FINAL_PICK_HELP),
+    keep: str | None = typer.Option(None, help=_KEEP_HELP),
+    optimizer: str | None = typer.Option(None, help=_OPTIMIZER_HELP),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
     seed: int | None = typer.Option(None, help="Run seed [0]."),
-    config: Path | None = typer.Option(
-        None,
-        "--config",
-        help="YAML config; keys it leaves out take the thesis defaults (configs/grn.yaml). "
-        "Without it, --preset.",
-    ),
+    config: Path | None = typer.Option(None, "--config", help=_CONFIG_HELP),
     set_: list[str] | None = typer.Option(None, "--set", help=SET_HELP),
-    preset: str = typer.Option(
-        "vision",
-        help="Without --config: vision (configs/grn_vision.yaml: blob front-end, substeps, shaped "
-        "training fitness) or thesis (configs/grn.yaml, the thesis protocol).",
-    ),
-    env_id: str | None = typer.Option(
-        None,
-        "--env",
-        help="Any Gymnasium env with a Box observation (a vector or an RGB image) and Box "
-        "actions; sensor and action sizes come from its spaces [the config's env.id].",
-    ),
-    controller: str | None = typer.Option(
-        None, help="Controller kind: plain, neuromodulated, open_loop, linear, mlp [plain]."
-    ),
+    preset: str = typer.Option("vision", help=_PRESET_HELP),
+    env_id: str | None = typer.Option(None, "--env", help=_ENV_HELP),
+    controller: str | None = typer.Option(None, help=_CONTROLLER_HELP),
     blind: bool = typer.Option(False, "--blind", help="Blind-GRN control: visual features zeroed."),
     open_loop: bool = typer.Option(False, "--open-loop", help="Evolve a fixed action sequence."),
-    resume: bool = typer.Option(
-        False,
-        "--resume",
-        help="Continue an interrupted run in --out; with a larger --generations, extend a "
-        "finished one (what a larger budget buys).",
-    ),
+    resume: bool = typer.Option(False, "--resume", help=_RESUME_HELP),
     quiet: bool = typer.Option(False, "--quiet", help="No progress line per generation."),
     backend: str = typer.Option("local", help=BACKEND_HELP),
     address: str | None = typer.Option(None, help=ADDRESS_HELP),
-    tensorboard: Path | None = typer.Option(
-        None, help="Also write history.csv's numbers as TensorBoard scalars into this folder."
-    ),
+    tensorboard: Path | None = typer.Option(None, help=_EVOLVE_TENSORBOARD_HELP),
 ) -> None:
     """Evolve a GRN (Algorithm 3) into OUT: best_genome.npz, encoder.pt, history.csv, summary.json."""
-    from evodevo.config import load_config, merge
-    from evodevo.grn.config import GrnConfig
-    from evodevo.grn.evolution import evolve_run
-    from evodevo.parallel import set_single_thread
-    from evodevo.runs import read_json
-
     set_single_thread()
     check_seed("--seed", seed)
     check_backend(backend, address, workers)
-    ov = merge(
-        _overrides(
-            population,
-            generations,
-            episodes,
-            seed,
-            controller,
-            blind,
-            open_loop,
-            final_pick,
-            keep,
-            optimizer,
-        ),
-        parse_sets(set_),
+    flags = _overrides(
+        population,
+        generations,
+        episodes,
+        seed,
+        controller,
+        blind,
+        open_loop,
+        final_pick,
+        keep,
+        optimizer,
     )
+    ov = merge(flags, parse_sets(set_))
+    cfg = _evolve_config(out, config, preset, resume, env_id, ov)
+    summary = _run_evolution(cfg, out, workers, resume, quiet, backend, address, tensorboard)
+    _echo_evolution(summary, out)
+
+
+def _evolve_config(
+    out: Path,
+    config: Path | None,
+    preset: str,
+    resume: bool,
+    env_id: str | None,
+    ov: dict[str, Any],
+) -> GrnConfig:
+    """The config ``grn evolve`` runs with (SPEC §2.4): the saved one on ``--resume`` (unless
+    ``--config``), else ``--config`` or the ``--preset``; then ``ov`` (the command's flags and
+    ``--set``) and the ``--env`` sizes."""
     if resume and not (out / "config.json").is_file():
         where = "does not exist" if not out.exists() else "holds no run (no config.json)"
         raise EvodevoError(
@@ -231,8 +250,6 @@ def evolve(
         saved = read_json(out / "config.json").get("config", {})
         cfg = load_config(GrnConfig, None, merge(saved, ov))
     elif config is None:  # the default preset sees; --preset thesis: the thesis
-        from evodevo.grn.config import vision_preset
-
         if preset not in ("vision", "thesis"):
             raise EvodevoError(f"--preset {preset!r} is not a preset; choose vision or thesis")
         base = vision_preset() if preset == "vision" else {}
@@ -240,8 +257,6 @@ def evolve(
     else:
         cfg = load_config(GrnConfig, config, ov)
     if env_id is not None:
-        from evodevo.config import to_dict
-
         env_ov = _env_overrides(env_id, cfg)
         merged = merge(to_dict(cfg), env_ov)
         merged["env"] = env_ov["env"]  # the new env's kwargs replace the old env's
@@ -251,17 +266,28 @@ def evolve(
             "--blind and the open-loop controller contradict each other: an open-loop policy "
             "reads no sensors; drop --blind (or sensors.blind) or choose another controller"
         )
-    from evodevo.progress import CommandProgress, GenerationBar
+    return cfg
 
+
+def _run_evolution(
+    cfg: GrnConfig,
+    out: Path,
+    workers: int,
+    resume: bool,
+    quiet: bool,
+    backend: str,
+    address: str | None,
+    tensorboard: Path | None,
+) -> dict[str, Any]:
+    """``evolve_run`` with the per-generation bar and the TensorBoard sink; a fresh run that
+    fails before its first checkpoint leaves no folder behind."""
     fresh = not out.exists()
     callbacks: list[Callback] = []
     if tensorboard is not None:
-        from evodevo.tensorboard import GenerationScalars
-
         callbacks.append(GenerationScalars(tensorboard))
     with CommandProgress("evaluate population", quiet) as bars, _remove_if_failed(out, fresh):
         callbacks.insert(0, GenerationBar(bars, cfg.evolution.generations))
-        summary = evolve_run(
+        return evolve_run(
             cfg,
             out,
             workers=workers,
@@ -271,6 +297,10 @@ def evolve(
             backend=backend,
             address=address,
         )
+
+
+def _echo_evolution(summary: dict[str, Any], out: Path) -> None:
+    """The lines ``grn evolve`` prints at the end: budget spent, final pick, kept champion."""
     typer.echo(
         f"{summary['generations_run']} generations, {summary['episodes_run']} episodes, "
         f"{summary['wall_s']:.0f} s; best training success {summary['best_training_success']:.2f}"
@@ -325,18 +355,11 @@ def baselines(
 
     The file is what `grn evaluate --baselines-from` and `evodevo reproduce` reuse (SPEC §2.5).
     """
-    from evodevo.config import load_config
-    from evodevo.grn.config import GrnConfig
-    from evodevo.grn.evaluation import evaluate_baselines
-    from evodevo.parallel import set_single_thread
-
     episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
     seed = renamed("--seed", "--test-seed", old_seed, test_seed)
     set_single_thread()
     check_seed("--test-seed", seed)
     names = parse_list(policies, "--policies")
-    from evodevo.progress import CommandProgress
-
     with CommandProgress("reference policies", quiet):
         res = evaluate_baselines(
             load_config(GrnConfig, config, parse_sets(set_)),
@@ -370,12 +393,6 @@ def ablate(
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """The nine ablations of SPEC §2.5 on the best genome: ablations.md/.csv and a figure."""
-    from evodevo.grn.ablations import run_ablations
-    from evodevo.grn.figures import plot_ablations
-    from evodevo.parallel import set_single_thread
-    from evodevo.progress import CommandProgress
-    from evodevo.runs import RunDir
-
     episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
     seed = renamed("--seed", "--test-seed", old_seed, test_seed)
     set_single_thread()
@@ -383,8 +400,6 @@ def ablate(
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     if modulators:
-        from evodevo.grn.neuromodulated import run_modulator_ablations
-
         with CommandProgress("modulator ablations", quiet):
             run_modulator_ablations(run_dir, episodes, objects, seed, workers)
         typer.echo((run_dir / "modulator_ablations.md").read_text().rstrip())
@@ -404,11 +419,6 @@ def plot(
 ) -> None:
     """Draw all figures of the run into RUN_DIR/figures (records trace.npz first if missing;
     for a neuromodulated run also modulator_trace.npz)."""
-    from evodevo.grn.figures import plot_run
-    from evodevo.grn.recording import TRACE_FILE, record_trace
-    from evodevo.parallel import set_single_thread
-    from evodevo.runs import read_json
-
     set_single_thread()
     if not run_dir.is_dir():
         raise EvodevoError(f"run directory {str(run_dir)!r} does not exist")
@@ -417,11 +427,9 @@ def plot(
     if not (run_dir / TRACE_FILE).is_file() and (run_dir / "best_genome.npz").is_file():
         record_trace(run_dir, objects=objects)
     saved = read_json(run_dir / "config.json") if (run_dir / "config.json").is_file() else {}
-    if saved.get("config", {}).get("controller") == "neuromodulated":
-        from evodevo.grn.neuromodulated import MODULATOR_TRACE_FILE, record_modulator_trace
-
-        if not (run_dir / MODULATOR_TRACE_FILE).is_file():
-            record_modulator_trace(run_dir, objects=objects)
+    neuromodulated = saved.get("config", {}).get("controller") == "neuromodulated"
+    if neuromodulated and not (run_dir / MODULATOR_TRACE_FILE).is_file():
+        record_modulator_trace(run_dir, objects=objects)
     for p in plot_run(run_dir):
         typer.echo(str(p))
 
@@ -439,11 +447,6 @@ def video(
 
     The episode is the one `grn evaluate` runs with the same index and objects.
     """
-    import evodevo
-    from evodevo.grn.evaluation import test_episodes
-    from evodevo.parallel import set_single_thread
-    from evodevo.video import film_episode, save_frames
-
     set_single_thread()
     if episode < 0:
         raise EvodevoError(f"--episode {episode} must be >= 0")
@@ -460,7 +463,7 @@ def video(
         )
     policy = evodevo.load(run_dir)
     cfg = policy.config  # type: ignore[attr-defined]
-    ep = test_episodes(cfg.evaluation.test_seed, episode + 1, objects == "test")[episode]
+    ep = fixed_test_episodes(cfg.evaluation.test_seed, episode + 1, objects == "test")[episode]
     env = policy.make_env(test_objects=ep.test_objects, render_mode="rgb_array")  # type: ignore[call-arg]
     try:
         title = f"{policy.kind} test episode {episode} ({objects} objects)"  # type: ignore[attr-defined]
