@@ -9,10 +9,12 @@ User errors raise :class:`~evodevo.errors.EvodevoError`, printed by the top-leve
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import typer
 
+from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
+from evodevo.baselines.kuka_runner import read_baseline_config, run_baseline
 from evodevo.callbacks import Callback
 from evodevo.cli.common import (
     ADDRESS_HELP,
@@ -21,10 +23,12 @@ from evodevo.cli.common import (
     check_backend,
     check_seed,
 )
+from evodevo.config import load_config, merge, parse_sets
 from evodevo.errors import EvodevoError
-
-if TYPE_CHECKING:
-    from evodevo.baselines.kuka_config import KukaBaselineConfig
+from evodevo.parallel import set_single_thread
+from evodevo.progress import TrainingBar
+from evodevo.runs import RunDir, read_json
+from evodevo.tensorboard import CurveScalars
 
 __all__ = ["app"]
 
@@ -37,8 +41,6 @@ app = typer.Typer(
 
 def _budget_from(path: Path, scale: float) -> int:
     """Env steps of a finished run (``summary.json``: ``env_steps``) times ``scale``."""
-    from evodevo.runs import read_json
-
     summary = read_json(path / "summary.json")
     steps = summary.get("env_steps")
     if not isinstance(steps, int) or steps <= 0:
@@ -46,11 +48,20 @@ def _budget_from(path: Path, scale: float) -> int:
     return max(1, int(round(steps * scale)))
 
 
+_METHOD_HELP = "ppo | td3 | neat | random | zero | recurrent_ppo (sb3-contrib)."
+_KUKA_SET_HELP = (
+    "Override a config key, e.g. --set keep.rule=validated or --set "
+    "evaluation.validation_episodes=20 (repeatable; applied last; unknown keys are an error)."
+)
+_KUKA_TENSORBOARD_HELP = (
+    "Also write learning_curve.csv's numbers (and NEAT's history.csv) as TensorBoard "
+    "scalars into this folder."
+)
+
+
 @app.command()
 def kuka(
-    method: str = typer.Option(
-        ..., "--method", help="ppo | td3 | neat | random | zero | recurrent_ppo (sb3-contrib)."
-    ),
+    method: str = typer.Option(..., "--method", help=_METHOD_HELP),
     out: Path = typer.Option(..., "--out", help="Run directory (created)."),
     budget_steps: int | None = typer.Option(
         None, "--budget-steps", help="Training env steps [PPO/TD3 13500; NEAT 15 generations]."
@@ -66,22 +77,13 @@ def kuka(
     config: Path | None = typer.Option(
         None, "--config", help="YAML config (configs/baselines_kuka.yaml)."
     ),
-    set_: list[str] | None = typer.Option(
-        None,
-        "--set",
-        help="Override a config key, e.g. --set keep.rule=validated or --set "
-        "evaluation.validation_episodes=20 (repeatable; applied last; unknown keys are an error).",
-    ),
+    set_: list[str] | None = typer.Option(None, "--set", help=_KUKA_SET_HELP),
     workers: int = typer.Option(1, help="Evaluator worker processes or Ray actors (NEAT)."),
     backend: str = typer.Option("local", help=BACKEND_HELP + " NEAT only."),
     address: str | None = typer.Option(None, help=ADDRESS_HELP),
     resume: bool = typer.Option(False, "--resume", help="Continue an interrupted run in --out."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar or lines (stderr)."),
-    tensorboard: Path | None = typer.Option(
-        None,
-        help="Also write learning_curve.csv's numbers (and NEAT's history.csv) as TensorBoard "
-        "scalars into this folder.",
-    ),
+    tensorboard: Path | None = typer.Option(None, help=_KUKA_TENSORBOARD_HELP),
 ) -> None:
     """Train one Kuka baseline into OUT (config.json, summary.json, learning_curve.csv, model).
 
@@ -89,25 +91,11 @@ def kuka(
     TD3 train in this process (Stable-Baselines3), so --backend applies to them only in
     `baselines evaluate`.
     """
-    from evodevo.baselines.kuka_config import METHODS, KukaBaselineConfig
-    from evodevo.config import load_config, merge, parse_sets
-    from evodevo.parallel import set_single_thread
-    from evodevo.runs import read_json
-
     set_single_thread()
     check_seed("--seed", seed)
     if method not in METHODS:
         raise EvodevoError(f"--method {method!r} is not known; choose one of {', '.join(METHODS)}")
-    if budget_steps is not None and budget_steps <= 0:
-        raise EvodevoError(f"--budget-steps {budget_steps} must be > 0")
-    if budget_minutes is not None and budget_minutes <= 0:
-        raise EvodevoError(f"--budget-minutes {budget_minutes} must be > 0")
-    if budget_scale <= 0:
-        raise EvodevoError(f"--budget-scale {budget_scale} must be > 0")
-    if budget_from is not None:
-        if budget_steps is not None:
-            raise EvodevoError("--budget-from and --budget-steps contradict each other; give one")
-        budget_steps = _budget_from(budget_from, budget_scale)
+    budget_steps = _budget_steps(budget_steps, budget_minutes, budget_from, budget_scale)
     check_backend(backend, address, workers)
     if backend != "local" and method != "neat":
         raise EvodevoError(
@@ -121,16 +109,7 @@ def kuka(
         ov.setdefault("budget", {})["env_steps"] = budget_steps
     if budget_minutes is not None:
         ov.setdefault("budget", {})["minutes"] = budget_minutes
-    ov = merge(ov, parse_sets(set_))
-    if resume and config is None and (out / "config.json").is_file():
-        saved = read_json(out / "config.json")
-        if saved.get("kind") != "baseline":
-            raise EvodevoError(
-                f"--resume: {str(out)!r} holds a {saved.get('kind')!r} run, not a baseline run"
-            )
-        cfg = load_config(KukaBaselineConfig, None, merge(saved.get("config", {}), ov))
-    else:
-        cfg = load_config(KukaBaselineConfig, config, ov)
+    cfg = _kuka_config(out, config, resume, merge(ov, parse_sets(set_)))
     summary = _train(cfg, out, workers, resume, quiet, backend, address, tensorboard)
     reach = summary.get("time_to_target_s")
     typer.echo(
@@ -139,6 +118,39 @@ def kuka(
         + (f"reached after {reach:.0f} s" if reach is not None else "not reached")
         + f"; run in {out}"
     )
+
+
+def _budget_steps(
+    steps: int | None, minutes: float | None, budget_from: Path | None, scale: float
+) -> int | None:
+    """``--budget-steps``, or the steps of ``--budget-from`` times ``--budget-scale``; every
+    budget option checked (SPEC §4: the baselines train for the GRN's env steps)."""
+    if steps is not None and steps <= 0:
+        raise EvodevoError(f"--budget-steps {steps} must be > 0")
+    if minutes is not None and minutes <= 0:
+        raise EvodevoError(f"--budget-minutes {minutes} must be > 0")
+    if scale <= 0:
+        raise EvodevoError(f"--budget-scale {scale} must be > 0")
+    if budget_from is None:
+        return steps
+    if steps is not None:
+        raise EvodevoError("--budget-from and --budget-steps contradict each other; give one")
+    return _budget_from(budget_from, scale)
+
+
+def _kuka_config(
+    out: Path, config: Path | None, resume: bool, ov: dict[str, Any]
+) -> KukaBaselineConfig:
+    """The config of ``baselines kuka``: ``--config`` (or, on ``--resume`` without it, the
+    run's saved config) with ``ov``, the command's flags and ``--set``, applied last."""
+    if resume and config is None and (out / "config.json").is_file():
+        saved = read_json(out / "config.json")
+        if saved.get("kind") != "baseline":
+            raise EvodevoError(
+                f"--resume: {str(out)!r} holds a {saved.get('kind')!r} run, not a baseline run"
+            )
+        return load_config(KukaBaselineConfig, None, merge(saved.get("config", {}), ov))
+    return load_config(KukaBaselineConfig, config, ov)
 
 
 def _train(
@@ -152,9 +164,6 @@ def _train(
     tensorboard: Path | None,
 ) -> dict[str, Any]:
     """``run_baseline`` with a progress bar over the budget and the TensorBoard sink."""
-    from evodevo.baselines.kuka_runner import run_baseline
-    from evodevo.progress import TrainingBar
-
     b = cfg.budget
     by_generation = cfg.method == "neat" and b.env_steps is None
     if b.env_steps is not None:
@@ -168,8 +177,6 @@ def _train(
     callbacks: list[Callback] = []
     tb = None
     if tensorboard is not None:
-        from evodevo.tensorboard import CurveScalars
-
         tb = CurveScalars(tensorboard)
         callbacks.append(tb)
     try:
@@ -191,9 +198,6 @@ def _train(
 
 def _check_baseline_run(run_dir: Path) -> None:
     """A clear error when RUN_DIR holds another kind of run."""
-    from evodevo.baselines.kuka_runner import read_baseline_config
-    from evodevo.runs import RunDir
-
     read_baseline_config(RunDir(run_dir, create=False))
 
 
