@@ -11,6 +11,9 @@ import typer
 
 from evodevo.config import parse_sets
 from evodevo.errors import EvodevoError
+from evodevo.grn.evaluation import evaluate_run
+from evodevo.parallel import set_single_thread
+from evodevo.progress import CommandProgress
 from evodevo.seeding import parse_seeds
 
 __all__ = ["parse_seeds", "parse_list", "check_seed", "renamed"]
@@ -98,6 +101,10 @@ def format_rate(name: str, r: Mapping[str, Any]) -> str:
     )
 
 
+_BASELINES_HELP = "Also run the trivial policies (all-zero, random, constant turn)."
+_BASELINES_FROM_HELP = "JSON of `grn baselines` for the same episodes (reused)."
+
+
 def add_evaluate_command(
     app: typer.Typer,
     *,
@@ -110,7 +117,7 @@ def add_evaluate_command(
     """Register the ``evaluate`` command shared by ``evodevo grn`` and ``evodevo baselines``.
 
     Both test a run directory with :func:`evodevo.grn.evaluation.evaluate_run` (the same fixed
-    test seeds, the trivial policies beside it) and print the same lines.
+    test seeds, the trivial policies beside it; SPEC §2.5) and print the same lines.
 
     Args:
         app: the sub-command group.
@@ -130,13 +137,9 @@ def add_evaluate_command(
         workers: int = typer.Option(1, help="Worker processes or Ray actors."),
         backend: str = typer.Option("local", help=BACKEND_HELP),
         address: str | None = typer.Option(None, help=ADDRESS_HELP),
-        baselines: bool = typer.Option(
-            True,
-            "--baselines/--no-baselines",
-            help="Also run the trivial policies (all-zero, random, constant turn).",
-        ),
+        baselines: bool = typer.Option(True, "--baselines/--no-baselines", help=_BASELINES_HELP),
         baselines_from: Path | None = typer.Option(
-            None, "--baselines-from", help="JSON of `grn baselines` for the same episodes (reused)."
+            None, "--baselines-from", help=_BASELINES_FROM_HELP
         ),
         as_json: bool = typer.Option(False, "--json", help="Print the result as JSON (last line)."),
         old_episodes: int | None = typer.Option(
@@ -146,9 +149,6 @@ def add_evaluate_command(
         quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
         set_: list[str] | None = typer.Option(None, "--set", help=TEST_SET_HELP),
     ) -> None:
-        from evodevo.grn.evaluation import evaluate_run
-        from evodevo.parallel import set_single_thread
-
         episodes = renamed("--episodes", "--test-episodes", old_episodes, test_episodes)
         seed = renamed("--seed", "--test-seed", old_seed, test_seed)
         set_single_thread()
@@ -156,8 +156,6 @@ def add_evaluate_command(
         check_seed("--test-seed", seed)
         if check_run is not None:
             check_run(run_dir)
-        from evodevo.progress import CommandProgress
-
         with CommandProgress("evaluate", quiet):
             res = evaluate_run(
                 run_dir,
@@ -175,20 +173,26 @@ def add_evaluate_command(
         if as_json:
             typer.echo(json.dumps({k: v for k, v in res.items() if k != "machine"}))
             return
-        name = label if label is not None else str(res["controller"])
-        typer.echo(
-            f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']} "
-            f"({res.get('seed_range', 'test')} range, SPEC §6), noise {noise:g}"
+        _echo_evaluation(
+            res, label if label is not None else str(res["controller"]), objects, noise
         )
-        typer.echo(format_rate(name, res))
-        if "clean" in res:
-            typer.echo(format_rate(f"{name} (clean)", res["clean"]))
-            if res.get("retention") is not None:
-                typer.echo(f"  retention noisy/clean: {res['retention']:.2f}")
-        for base, r in res["baselines"].items():
-            typer.echo(format_rate(base, r))
 
     app.command("evaluate", help=help)(evaluate)
+
+
+def _echo_evaluation(res: Mapping[str, Any], name: str, objects: str, noise: float) -> None:
+    """The lines ``evaluate`` prints: the test, the run's rate (clean and noisy), the baselines."""
+    typer.echo(
+        f"{res['episodes']} episodes on {objects} objects, test seed {res['test_seed']} "
+        f"({res.get('seed_range', 'test')} range, SPEC §6), noise {noise:g}"
+    )
+    typer.echo(format_rate(name, res))
+    if "clean" in res:
+        typer.echo(format_rate(f"{name} (clean)", res["clean"]))
+        if res.get("retention") is not None:
+            typer.echo(f"  retention noisy/clean: {res['retention']:.2f}")
+    for base, r in res["baselines"].items():
+        typer.echo(format_rate(base, r))
 
 
 __all__ += [
