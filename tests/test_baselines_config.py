@@ -6,9 +6,11 @@ from pathlib import Path
 
 import pytest
 
+import evodevo.baselines  # noqa: F401  (registers the baselines' controllers)
 from evodevo.baselines.kuka_config import CONTROLLERS, METHODS, KukaBaselineConfig
 from evodevo.config import load_config, to_dict
 from evodevo.errors import ConfigError
+from evodevo.grn.controller import controller_names
 from evodevo.seed_split import TEST_SEED
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,7 +39,7 @@ def test_table_4_1_defaults_and_the_shipped_yaml_agree():
 def test_each_method_evaluates_with_the_grn_test_seeds(method):
     cfg = KukaBaselineConfig(method=method)
     ev = cfg.evaluator_config()
-    assert ev.controller == CONTROLLERS[method] and ":" in ev.controller
+    assert ev.controller == CONTROLLERS[method] and ev.controller in controller_names()
     assert ev.evaluation.test_seed == TEST_SEED and ev.env.kwargs == {"max_steps": 8}
 
 

@@ -5,6 +5,7 @@ imports the command line (``parse_seeds`` lives in :mod:`evodevo.seeding`)."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -42,10 +43,33 @@ def test_library_code_does_not_import_the_cli():
 
 
 def test_the_sb3_trainer_is_registered_by_the_baselines():
-    pytest.importorskip("stable_baselines3")
-    from evodevo.baselines.sb3_dqn_tasks import train_sb3_tasks
+    import evodevo.baselines
     from evodevo.neuromod.variants import get_variant
     from evodevo.trainers import get_trainer
 
-    assert get_trainer(get_variant("sb3-dqn").architecture) is train_sb3_tasks
+    assert get_trainer(get_variant("sb3-dqn").architecture) is evodevo.baselines.train_sb3_dqn
     assert get_trainer(get_variant("biarm").architecture) is None
+
+
+def test_an_unregistered_architecture_names_what_to_import():
+    from evodevo.errors import EvodevoError
+    from evodevo.trainers import get_trainer
+
+    with pytest.raises(EvodevoError, match="import evodevo.baselines"):
+        get_trainer("no-such-architecture")
+
+
+_STRING_IMPORT = re.compile(r'"evodevo(\.[a-z_0-9]+)+:[A-Za-z_]')
+
+
+def test_no_module_of_the_package_is_named_in_a_string():
+    """Dependencies are imports: no ``"evodevo.x:attr"`` path for a registry to import, except
+    Gymnasium's entry points (its own registration API, in evodevo/envs/__init__.py)."""
+    hits = [
+        f"{p.relative_to(SRC)}:{i}"
+        for p in sorted(SRC.rglob("*.py"))
+        if p.relative_to(SRC).as_posix() != "envs/__init__.py"
+        for i, line in enumerate(p.read_text().splitlines(), 1)
+        if _STRING_IMPORT.search(line) and not line.lstrip().startswith(("*", "#", ">>>"))
+    ]
+    assert hits == []

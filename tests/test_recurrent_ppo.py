@@ -28,6 +28,7 @@ from evodevo.baselines.policies import Sb3Model, load_sb3  # noqa: E402
 from evodevo.baselines.recurrent_ppo import RecurrentPpoPolicy, build_recurrent_ppo  # noqa: E402
 from evodevo.baselines.sb3_files import KIND, load_sb3_policy, restore_sb3  # noqa: E402
 from evodevo.cli.baselines import app  # noqa: E402
+from evodevo.grn.controller import make_controller  # noqa: E402
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
@@ -115,7 +116,8 @@ def test_the_saved_model_loads_without_unpickling_and_acts_identically(trained, 
 def test_the_evaluator_policy_keeps_one_lstm_state_per_episode(trained):
     cfg = _config(trained)
     ev_cfg = cfg.evaluator_config()
-    assert ev_cfg.controller == "evodevo.baselines.recurrent_ppo:RecurrentPpoPolicy"
+    assert ev_cfg.controller == "recurrent_ppo"
+    assert isinstance(make_controller(ev_cfg, 3), RecurrentPpoPolicy)
     assert ev_cfg.sensors.encoder == "blob"
     pol = RecurrentPpoPolicy(ev_cfg, 3)
     pol.frontend = None  # feed the features directly (the front-end's own test is elsewhere)

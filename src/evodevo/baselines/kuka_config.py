@@ -313,13 +313,15 @@ class KukaBaselineConfig:
 
 
 CONTROLLERS = {
-    "ppo": "evodevo.baselines.policies:Sb3Policy",
-    "td3": "evodevo.baselines.policies:Sb3Policy",
-    "neat": "evodevo.baselines.policies:NeatPolicy",
-    "zero": "evodevo.grn.controller:ZeroPolicy",
-    "random": "evodevo.grn.controller:RandomPolicy",
-    "recurrent_ppo": "evodevo.baselines.recurrent_ppo:RecurrentPpoPolicy",
+    "ppo": "sb3",
+    "td3": "sb3",
+    "neat": "neat",
+    "zero": "zero",
+    "random": "random",
+    "recurrent_ppo": "recurrent_ppo",
 }
-"""Controller (evaluator policy) of each method, as ``"module:attr"``."""
+"""Controller (evaluator policy) of each method: a kind of :mod:`evodevo.grn.controller`,
+registered by :mod:`evodevo.baselines` (``sb3``, ``neat``, ``recurrent_ppo``) or by the GRN
+package itself (``zero``, ``random``)."""
 
 __all__ += ["CONTROLLERS"]

@@ -372,40 +372,47 @@ class TurnPolicy(ZeroPolicy):
         return a
 
 
-BASELINES: dict[str, Callable[[Any, int], Any] | str] = {
+Factory = Callable[[Any, int], Any]
+"""What builds a controller or a reference policy: ``factory(config, n_actions)``. A class or a
+module-level function, so that worker processes receive it pickled by reference (they import
+its module themselves)."""
+
+BASELINES: dict[str, Factory] = {
     "zero": ZeroPolicy,
     "random": RandomPolicy,
     "turn": TurnPolicy,
 }
 """The reference policies measured beside every result (SPEC §2.5): all-zero, uniform random,
 the constant "turn the gripper" action (last action dimension -1), and whatever the baselines
-package registers with :func:`register_baseline` (the scripted image-only pipeline,
-``scripted``: blob nearest the gripper on the first frame, move over it, turn; and
-``scripted_memory``, the same remembering its target when the camera goes dark). Values are
-factories ``(config, n_actions)`` or ``"module:attr"`` paths, imported when first used, so
-this module never imports the baselines package."""
+package registers with :func:`register_baseline` when it is imported (the scripted image-only
+pipeline, ``scripted``: blob nearest the gripper on the first frame, move over it, turn; and
+``scripted_memory``, the same remembering its target when the camera goes dark). This module
+never imports the baselines package: the dependency points from the baselines to the method."""
 
 
-def register_baseline(name: str, factory: Callable[[Any, int], Any] | str) -> None:
+def register_baseline(name: str, factory: Factory) -> None:
     """Register a reference policy measured beside every GRN result (a key of BASELINES)."""
     BASELINES[name] = factory
 
 
-# the scripted pipeline lives with the other baselines (evodevo.baselines.policies); by name
-register_baseline("scripted", "evodevo.baselines.policies:ScriptedPolicy")
-register_baseline("scripted_memory", "evodevo.baselines.policies:RememberingScriptedPolicy")
-
-_REGISTRY: dict[str, Callable[..., Any] | str] = {
+_REGISTRY: dict[str, Factory] = {
     "plain": PlainGrnController,
-    "neuromodulated": "evodevo.grn.neuromodulated:NeuromodGrnController",
-    "open_loop": "evodevo.grn.open_loop:OpenLoopController",
-    "linear": "evodevo.grn.feedforward:LinearController",
-    "mlp": "evodevo.grn.feedforward:MlpController",
+    "zero": ZeroPolicy,
+    "random": RandomPolicy,
 }
+"""Controller kinds by name. The package's other kinds register when :mod:`evodevo.grn` is
+imported (``neuromodulated``, ``open_loop``, ``linear``, ``mlp``), the Kuka baselines' policies
+when :mod:`evodevo.baselines` is (``sb3``, ``neat``, ``recurrent_ppo``)."""
 
 
-def register_controller(name: str, factory: Callable[..., Any] | str) -> None:
-    """Register a controller kind: ``factory(config, n_actions)`` or a ``"module:attr"`` path."""
+def register_controller(name: str, factory: Factory) -> None:
+    """Register a controller kind: ``factory(config, n_actions)`` (a class or a module-level
+    function, so that worker processes can receive it)."""
+    if isinstance(factory, str):
+        raise ConfigError(
+            f"register_controller({name!r}, {factory!r}): give the class itself (import it), "
+            "not its module path"
+        )
     _REGISTRY[name] = factory
 
 
@@ -417,17 +424,18 @@ def controller_names() -> list[str]:
 def check_controller(config: GrnConfig) -> None:
     """Refuse a ``config.controller`` that is neither a registered kind nor ``"module:attr"``,
     with one error naming it (before any work starts)."""
-    name = config.controller
-    if ":" not in name and name not in _REGISTRY:
-        raise ConfigError(
-            f"controller={name!r} is not known; choose one of {controller_names()} or give "
-            "'module:attr'"
-        )
+    policy_factory(config)
 
 
-def _resolve(target: Callable[..., Any] | str) -> Callable[..., Any]:
-    if not isinstance(target, str):
-        return target
+def _unknown(name: str) -> ConfigError:
+    return ConfigError(
+        f"controller={name!r} is not known; choose one of {controller_names()} or give "
+        "'module:attr' (the Kuka baselines' controllers sb3, neat and recurrent_ppo register "
+        "when evodevo.baselines is imported)"
+    )
+
+
+def _import_path(target: str) -> Factory:
     module, _, attr = target.partition(":")
     try:
         return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]
@@ -435,25 +443,29 @@ def _resolve(target: Callable[..., Any] | str) -> Callable[..., Any]:
         raise EvodevoError(f"controller {target!r} cannot be imported ({exc})") from None
 
 
-def make_controller(config: GrnConfig, n_actions: int) -> Any:
-    """Build ``config.controller`` (a registered name or ``"module:attr"``) for ``n_actions``."""
+def policy_factory(config: GrnConfig, baseline: str | None = None) -> Factory:
+    """The factory of ``config.controller`` (a registered name or a user's ``"module:attr"``
+    path, imported here), or of the reference policy ``baseline`` (a key of BASELINES)."""
+    if baseline is not None:
+        if baseline not in BASELINES:
+            raise EvodevoError(f"unknown baseline {baseline!r}; choose one of {sorted(BASELINES)}")
+        return BASELINES[baseline]
     name = config.controller
     if name in _REGISTRY:
-        factory = _resolve(_REGISTRY[name])
-    elif ":" in name:
-        factory = _resolve(name)
-    else:
-        raise EvodevoError(f"unknown controller {name!r}; choose one of {controller_names()}")
-    return factory(config, n_actions)
+        return _REGISTRY[name]
+    if ":" in name:
+        return _import_path(name)
+    raise _unknown(name)
+
+
+def make_controller(config: GrnConfig, n_actions: int) -> Any:
+    """Build ``config.controller`` (a registered name or ``"module:attr"``) for ``n_actions``."""
+    return policy_factory(config)(config, n_actions)
 
 
 def make_policy(config: GrnConfig, n_actions: int, baseline: str | None = None) -> Any:
     """The controller of ``config``, or the trivial policy ``baseline`` (a key of BASELINES)."""
-    if baseline is None:
-        return make_controller(config, n_actions)
-    if baseline not in BASELINES:
-        raise EvodevoError(f"unknown baseline {baseline!r}; choose one of {sorted(BASELINES)}")
-    return _resolve(BASELINES[baseline])(config, n_actions)
+    return policy_factory(config, baseline)(config, n_actions)
 
 
-__all__ += ["make_policy", "register_baseline"]
+__all__ += ["make_policy", "register_baseline", "policy_factory", "Factory"]

@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import importlib
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -48,9 +47,23 @@ class LoadedRun:
     kind: str
 
 
-RUN_LOADERS: dict[str, str] = {"baseline": "evodevo.baselines.kuka_runner:load_run"}
-"""Loaders ``(run, saved_config) -> LoadedRun`` of other run kinds the same test applies to."""
-__all__ += ["RUN_LOADERS"]
+RunLoader = Callable[[RunDir, dict[str, Any]], LoadedRun]
+
+RUN_LOADERS: dict[str, RunLoader] = {}
+"""Loaders ``(run, saved_config) -> LoadedRun`` of other run kinds the same test applies to,
+registered by the package that writes them (:func:`register_run_loader`; the Kuka baselines'
+``baseline`` runs when :mod:`evodevo.baselines` is imported)."""
+
+#: Run kinds whose loader registers when the named package is imported.
+_PROVIDED_BY = {"baseline": "evodevo.baselines"}
+
+
+def register_run_loader(kind: str, loader: RunLoader) -> None:
+    """Let :func:`load_run` (and so ``grn evaluate``) load runs of ``kind`` with ``loader``."""
+    RUN_LOADERS[kind] = loader
+
+
+__all__ += ["RUN_LOADERS", "RunLoader", "register_run_loader"]
 
 
 #: The config sections a test of a trained run may change (``--set``): what it is tested on,
@@ -82,10 +95,14 @@ def load_run(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Lo
     """
     run = RunDir(path, create=False)
     saved = run.read_config()
-    if saved.get("kind") in RUN_LOADERS:
-        module, _, attr = RUN_LOADERS[str(saved["kind"])].partition(":")
-        loader = getattr(importlib.import_module(module), attr)
-        loaded: LoadedRun = loader(run, saved)
+    kind = str(saved.get("kind"))
+    if kind in _PROVIDED_BY and kind not in RUN_LOADERS:
+        raise EvodevoError(
+            f"{str(run.path)!r} holds a {kind!r} run, loaded by {_PROVIDED_BY[kind]}: import it "
+            "first (the CLI does)"
+        )
+    if kind in RUN_LOADERS:
+        loaded = RUN_LOADERS[kind](run, saved)
         return dataclasses.replace(loaded, config=test_overrides(loaded.config, overrides))
     if saved.get("kind") != "grn":
         raise EvodevoError(

@@ -42,6 +42,7 @@ import numpy as np
 
 from evodevo.errors import EvodevoError
 from evodevo.grn.config import GrnConfig
+from evodevo.grn.controller import Factory, policy_factory
 from evodevo.grn.encoder import Encoder
 from evodevo.grn.env_interface import (
     action_dims,
@@ -272,21 +273,19 @@ class _Task:
     policy_key: str
     config: GrnConfig
     n_actions: int
-    baseline: str | None
+    factory: Factory  # the controller's or reference policy's, pickled by reference
     genomes: list[Any]
     episodes: list[Episode]
     measure_distance: bool = False
 
 
 def _run_task(task: _Task) -> dict[str, np.ndarray]:
-    from evodevo.grn.controller import make_policy
-
     ctx = _CONTEXTS.get(task.key)
     if ctx is None:  # pragma: no cover - the pool always runs the initializer first
         raise EvodevoError("worker was not initialised for this evaluator")
     policy = ctx.policies.get(task.policy_key)
     if policy is None:
-        policy = make_policy(task.config, task.n_actions, task.baseline)
+        policy = task.factory(task.config, task.n_actions)
         ctx.policies[task.policy_key] = policy
     by_objects: dict[bool, list[int]] = {}
     for i, ep in enumerate(task.episodes):
@@ -513,6 +512,7 @@ class Evaluator:
     ) -> EpisodeResults:
         """Run every (genome, episode) pair, ``lockstep`` pairs per task."""
         policy_key = f"{baseline}|{cfg!r}"
+        factory = policy_factory(cfg, baseline)  # resolved here: workers import nothing by name
         lockstep = cfg.evaluation.lockstep
         items = [(g, e) for g in range(len(genomes)) for e in range(len(episodes))]
         tasks: list[_Task] = []
@@ -535,7 +535,7 @@ class Evaluator:
                     policy_key,
                     cfg,
                     self.n_actions,
-                    baseline,
+                    factory,
                     [genomes[g] for g, _ in chunk],
                     [episodes[e] for _, e in chunk],
                     measure_distance,

@@ -58,6 +58,7 @@ from evodevo.neuromod.tables import (
 from evodevo.parallel import make_pool
 from evodevo.runs import RunDir, atomic_write_text, make_dir, read_json, write_json
 from evodevo.stats import summarise
+from evodevo.trainers import Trainer, get_trainer
 
 __all__ = [
     "GRID_FILE",
@@ -89,15 +90,19 @@ __all__ = [
 ]
 
 
-def _run_item(item: tuple[str, int, dict[str, Any], str]) -> str:
-    """Worker body: train one (variant, seed) into its folder, resuming if interrupted."""
+def _run_item(item: tuple[str, int, dict[str, Any], str, Trainer | None]) -> str:
+    """Worker body: train one (variant, seed) into its folder, resuming if interrupted.
+
+    The item carries the trainer of a variant that :func:`~evodevo.neuromod.trainer.train`
+    does not run itself (resolved by the parent; pickled by reference, so the worker imports
+    its module)."""
     from evodevo.neuromod.checkpoint import latest_resume_point
     from evodevo.neuromod.trainer import train
 
-    variant, seed, cfg_dict, out = item
+    variant, seed, cfg_dict, out, trainer = item
     cfg = from_dict(BiarmConfig, cfg_dict)
     resume = latest_resume_point(Path(out) / "checkpoints") is not None
-    train(cfg, variant, seed, out, resume=resume)
+    (trainer or train)(cfg, variant, seed, out, resume=resume)
     return out
 
 
@@ -126,8 +131,7 @@ def run_grid(
     from evodevo.neuromod.tasks import resolve_tasks
     from evodevo.neuromod.variants import get_variant
 
-    for v in variants:
-        get_variant(v)
+    trainers = {v: get_trainer(get_variant(v).architecture) for v in variants}
     resolve_tasks(cfg)  # every input error before any worker starts
     root = Path(out)
     make_dir(root / "runs")
@@ -139,7 +143,7 @@ def run_grid(
             folder = root / "runs" / run_dir_name(v, s)
             if (folder / "summary.json").is_file():
                 continue
-            items.append((v, int(s), cfg_dict, str(folder)))
+            items.append((v, int(s), cfg_dict, str(folder), trainers[v]))
     if not items:
         return []
     with make_pool(backend, min(workers, len(items)), address=address) as pool:
