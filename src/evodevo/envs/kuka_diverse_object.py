@@ -55,7 +55,7 @@ from gymnasium.utils.seeding import np_random
 
 from evodevo.envs import kuka_arm
 from evodevo.envs.bullet import pybullet as p
-from evodevo.envs.env_options import check_int, check_unit, positive
+from evodevo.envs.env_options import check_options, positive
 from evodevo.envs.kuka_actions import DISCRETE_FREE, DISCRETE_HEIGHT_HACK, DV, parse_action
 from evodevo.envs.kuka_arm import OPEN_FINGER_ANGLE, KukaArm
 from evodevo.envs.kuka_grasp import GRASP_CLOSE_STEPS, GRASP_LIFT_STEPS, grasp
@@ -103,6 +103,23 @@ SETTLE_STEPS = 500
 SUCCESS_HEIGHT = 0.2
 #: Side (pixels) of the square image returned by ``render()`` in ``"rgb_array"`` mode.
 RENDER_SIZE = 256
+
+
+def _action_space(is_discrete: bool, height_hack: bool) -> spaces.Space[Any]:
+    """The original's actions: 7 or 9 discrete ones, or a Box of (dx, dy[, dz], d-angle)."""
+    if is_discrete:
+        return spaces.Discrete(len(DISCRETE_HEIGHT_HACK if height_hack else DISCRETE_FREE))
+    return spaces.Box(-1.0, 1.0, (3 if height_hack else 4,), dtype=np.float32)
+
+
+def _scene_cache(option: bool | SceneCache, folder: str | None, entries: int) -> SceneCache | None:
+    """The settled-scene cache of the ``scene_cache`` option (``scene_cache_dir``, else
+    ``$EVODEVO_SCENE_CACHE_DIR``, else memory only), or None without one."""
+    if isinstance(option, SceneCache):
+        return option
+    if option:
+        return shared_cache(int(entries), folder or os.environ.get(CACHE_DIR_ENV) or None)
+    return None
 
 
 class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -194,34 +211,21 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         lateral_dv: float | None = None,
         dark_after: int | None = None,
     ) -> None:
-        check_int("num_objects", num_objects, 1)
-        check_int("max_steps", max_steps, 1)
-        check_int("action_repeat", action_repeat, 1)
-        check_int("width", width, 1)
-        check_int("height", height, 1)
-        check_int("rebuild_every", rebuild_every, 0)
-        check_int("scene_cache_entries", scene_cache_entries, 1)
-        if dark_after is not None and (
-            isinstance(dark_after, bool)
-            or not isinstance(dark_after, (int, np.integer))
-            or dark_after < 0
-        ):
-            raise ConfigError(
-                f"dark_after={dark_after!r} must be null (the camera never goes dark) or an "
-                "integer >= 0 (the observations seen before the camera goes dark)"
-            )
-        if not isinstance(scene_cache, (bool, SceneCache)):
-            raise ConfigError(
-                f"scene_cache={scene_cache!r} must be true, false or a SceneCache instance"
-            )
-        if not isinstance(skip_empty_lift, (bool, np.bool_)):
-            raise ConfigError(f"skip_empty_lift={skip_empty_lift!r} must be true or false")
-        check_unit("camera_random", camera_random)
-        check_unit("block_random", block_random)
-        if render_mode not in (None, "rgb_array"):
-            raise ConfigError(
-                f"render_mode={render_mode!r} is not supported; use None or 'rgb_array'"
-            )
+        check_options(
+            num_objects=num_objects,
+            max_steps=max_steps,
+            action_repeat=action_repeat,
+            width=width,
+            height=height,
+            rebuild_every=rebuild_every,
+            scene_cache_entries=scene_cache_entries,
+            dark_after=dark_after,
+            scene_cache=scene_cache,
+            skip_empty_lift=skip_empty_lift,
+            camera_random=camera_random,
+            block_random=block_random,
+            render_mode=render_mode,
+        )
         self.height_hack = bool(height_hack)
         self.test_objects = bool(test_objects)
         self.num_objects = int(num_objects)
@@ -239,14 +243,7 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ConfigError(f"no object URDFs found under {self.urdf_root!r}/random_urdfs")
 
         self.observation_space = spaces.Box(0, 255, (self.height, self.width, 3), dtype=np.uint8)
-        self.action_space: spaces.Space[Any]
-        if self.is_discrete:
-            n = len(DISCRETE_HEIGHT_HACK if self.height_hack else DISCRETE_FREE)
-            self.action_space = spaces.Discrete(n)
-        else:
-            self.action_space = spaces.Box(
-                -1.0, 1.0, (3 if self.height_hack else 4,), dtype=np.float32
-            )
+        self.action_space: spaces.Space[Any] = _action_space(self.is_discrete, self.height_hack)
 
         self.deterministic_pairs = bool(deterministic_pairs)
         self.rebuild_every = int(rebuild_every)
@@ -256,19 +253,16 @@ class KukaDiverseObjectEnv(gym.Env[np.ndarray, np.ndarray]):
         self.grasps = 0
         self.lifts_skipped = 0
         self.lift_steps_skipped = 0
-        self.scene_cache: SceneCache | None
-        if isinstance(scene_cache, SceneCache):
-            self.scene_cache = scene_cache
-        elif scene_cache:
-            folder = scene_cache_dir or os.environ.get(CACHE_DIR_ENV) or None
-            self.scene_cache = shared_cache(int(scene_cache_entries), folder)
-        else:
-            self.scene_cache = None
+        self.scene_cache = _scene_cache(scene_cache, scene_cache_dir, scene_cache_entries)
         self._scene_settings = self._drop_settings()
         self._connected = False
         self._cid: int = -1
         self.worlds_built = 0
         self._build_world()
+        self._init_episode_state()
+
+    def _init_episode_state(self) -> None:
+        """Before the first reset: no episode, no grasp, no camera."""
         self._ready = False
         self._attempted_grasp = False
         self._env_step = 0
