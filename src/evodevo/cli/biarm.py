@@ -13,21 +13,32 @@ Examples::
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import typer
 
+import evodevo
+from evodevo.callbacks import CallbackList
 from evodevo.cli.common import ADDRESS_HELP, check_backend, check_seed, parse_list, parse_seeds
+from evodevo.config import describe, from_dict
 from evodevo.errors import EvodevoError
-from evodevo.runs import run_kind
+from evodevo.neuromod.compare import contrast_table, grid_progress, run_grid, write_report
+from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.protocol_sweep import SweepSpec, run_sweep, sweep_table
+from evodevo.neuromod.resolve import resolve_biarm
+from evodevo.neuromod.resume import saved_config
+from evodevo.neuromod.tasks import resolve_tasks
+from evodevo.neuromod.trainer import train as run_train
+from evodevo.neuromod.variants import VARIANTS, Variant, get_variant
+from evodevo.parallel import set_single_thread
+from evodevo.progress import CommandProgress, TaskBars
+from evodevo.runs import read_json, run_kind
+from evodevo.signals import GracefulStop
+from evodevo.tensorboard import EpisodeScalars, RunsExporter
+from evodevo.video import film_episode, save_frames
 
-if TYPE_CHECKING:
-    from evodevo.neuromod.config import BiarmConfig
-    from evodevo.neuromod.variants import Variant
-    from evodevo.signals import GracefulStop
-
-#: Every variant name (kept literal: importing the variants module would load torch on start).
-VARIANT_NAMES = "biarm, pnn, no-da, no-5ht, no-ne, no-ach, clamped, finetune, ewc, sb3-dqn, single"
+#: Every variant name, for the help texts.
+VARIANT_NAMES = ", ".join(VARIANTS)
 
 __all__ = ["app"]
 
@@ -55,10 +66,8 @@ def _load(
     overrides: list[str] | None = None,
     protocol: str | None = None,
     sequence: str | None = None,
-) -> Any:
+) -> BiarmConfig:
     """:func:`evodevo.neuromod.resolve.resolve_biarm` of the command's options."""
-    from evodevo.neuromod.resolve import resolve_biarm
-
     return resolve_biarm(protocol, config, overrides, episodes_scale, tasks, sequence)
 
 
@@ -75,11 +84,6 @@ def _resume_settings(
     out: Path, variant: str | None, seed: int | None, own_config: bool
 ) -> tuple[str | None, int | None, Any]:
     """Variant, seed and config saved in OUT/config.json (for ``train --resume``)."""
-    from evodevo.config import from_dict
-    from evodevo.neuromod.config import BiarmConfig
-    from evodevo.neuromod.resume import saved_config
-    from evodevo.runs import read_json
-
     saved = read_json(out / "config.json")
     if saved.get("kind") != "biarm":
         raise EvodevoError(
@@ -126,11 +130,6 @@ def train(
     SIGINT/SIGTERM finish the current episode, write a checkpoint and stop; --resume
     continues with the numbers an uninterrupted run would give.
     """
-    from evodevo.neuromod.tasks import resolve_tasks
-    from evodevo.neuromod.variants import get_variant
-    from evodevo.parallel import set_single_thread
-    from evodevo.signals import GracefulStop
-
     check_seed("--seed", seed)
     cfg = None
     if resume and not (out / "config.json").is_file():
@@ -178,7 +177,6 @@ def _train_with_progress(
     scalars into ``tensorboard`` if given)."""
     if tensorboard is None:
         return _train_with_bars(cfg, var, seed, out, resume, quiet, stop, None)
-    from evodevo.tensorboard import EpisodeScalars
 
     tb = EpisodeScalars(tensorboard)
     try:
@@ -197,10 +195,6 @@ def _train_with_bars(
     stop: GracefulStop,
     tb: Any,
 ) -> dict[str, Any]:
-    from evodevo.callbacks import CallbackList
-    from evodevo.neuromod.trainer import train as run_train
-    from evodevo.progress import TaskBars
-
     with TaskBars(quiet) as bars:
         callback = CallbackList([bars, tb])
         return run_train(cfg, var, seed, out, resume=resume, callback=callback, stop=stop)
@@ -241,10 +235,6 @@ def compare(
     Finished runs (summary.json present) are skipped; interrupted ones resume from their newest
     checkpoint.
     """
-    from evodevo.neuromod.compare import run_grid, write_report
-    from evodevo.neuromod.variants import get_variant
-    from evodevo.parallel import set_single_thread
-
     names = parse_list(variants) or []
     if not names:
         raise EvodevoError("--variants names no variant; e.g. biarm,pnn")
@@ -254,12 +244,9 @@ def compare(
     cfg = _load(config, tasks, episodes_scale, set_, protocol, sequence)
     set_single_thread()
     check_backend(backend, address, workers)
-    from evodevo.progress import CommandProgress
 
     exporter = None
     if tensorboard is not None:
-        from evodevo.tensorboard import RunsExporter
-
         exporter = RunsExporter(out / "runs", tensorboard)
     on_item = exporter.on_item if exporter is not None else None
     with CommandProgress("training runs", quiet, on_item=on_item):
@@ -292,9 +279,6 @@ def sweep(
     Finished runs are skipped, interrupted ones resume; the table (OUT/sweep.md) covers every
     finished run of the selection.
     """
-    from evodevo.neuromod.protocol_sweep import SweepSpec, run_sweep, sweep_table
-    from evodevo.parallel import set_single_thread
-
     spec = SweepSpec.load(config).select(
         parse_list(protocols),
         parse_list(tasks),
@@ -303,8 +287,6 @@ def sweep(
     )
     if not table_only:
         set_single_thread()
-        from evodevo.progress import CommandProgress
-
         with CommandProgress("training runs", quiet):
             done = run_sweep(spec, out, workers=workers)
         typer.echo(f"trained {len(done)} run(s)")
@@ -323,10 +305,6 @@ def video(
     max_steps: int | None = typer.Option(None, help="Stop filming after this many steps."),
 ) -> None:
     """Film one task's column acting greedily in its environment (step, action, reward, return)."""
-    import evodevo
-    from evodevo.runs import read_json
-    from evodevo.video import film_episode, save_frames
-
     check_seed("--episode-seed", episode_seed)
     seed = episode_seed
     if fps is not None and not fps > 0:
@@ -358,8 +336,6 @@ def report(
     figures: bool = typer.Option(True, help="Also re-draw the figures."),
 ) -> None:
     """Re-draw tables and figures from the saved runs, without re-running anything."""
-    from evodevo.neuromod.compare import grid_progress, write_report
-
     typer.echo(f"wrote {write_report(out, figures=figures)}")
     progress = grid_progress(out)
     if progress and progress[0] < progress[1]:
@@ -373,9 +349,6 @@ def report(
 @app.command("config")
 def show_config() -> None:
     """Print every config key with its default and meaning."""
-    from evodevo.config import describe
-    from evodevo.neuromod.config import BiarmConfig
-
     for key, default, doc in describe(BiarmConfig):
         typer.echo(f"{key:32s} {default:28s} {doc}")
 
@@ -386,8 +359,6 @@ def contrast(
     variant: str = typer.Option("biarm", help="Which variant's runs to contrast."),
 ) -> None:
     """Print a Markdown table contrasting one variant under several settings (saved runs only)."""
-    from evodevo.neuromod.compare import contrast_table
-
     pairs = {}
     for item in parse_list(runs) or []:
         if "=" not in item:

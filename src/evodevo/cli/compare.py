@@ -10,7 +10,9 @@ from pathlib import Path
 
 import typer
 
+from evodevo.baselines.table_4_2 import write_table
 from evodevo.errors import EvodevoError
+from evodevo.neuromod.compare import write_continual_table
 
 __all__ = ["app"]
 
@@ -41,8 +43,6 @@ def kuka(
     validation episodes are columns; the caption names the test's seed range and says whether
     every learner returns its model by the same rule (SPEC §6).
     """
-    from evodevo.baselines.table_4_2 import write_table
-
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
     write_table(list(run_dirs), out, objects, target)
@@ -62,7 +62,5 @@ def biarm(
     seeds, initial return, retention, the forgetting measure of Eq. 1.4, and the thesis'
     numbers in their own columns; seeds and budget stated above the table.
     """
-    from evodevo.neuromod.compare import write_continual_table
-
     md = write_continual_table(list(run_dirs), out)
     typer.echo(md.read_text().rstrip())

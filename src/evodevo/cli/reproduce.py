@@ -7,6 +7,8 @@ from pathlib import Path
 import typer
 
 from evodevo.cli.common import check_seed, renamed
+from evodevo.parallel import set_single_thread
+from evodevo.reproduce import run_reproduce
 
 __all__ = ["reproduce"]
 
@@ -41,9 +43,6 @@ def reproduce(
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar over the steps (stderr)."),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
-    from evodevo.parallel import set_single_thread
-    from evodevo.reproduce import run_reproduce
-
     seed = renamed("--seed", "--seed-offset", old_seed, seed_offset or None) or 0
     set_single_thread()
     check_seed("--seed-offset", seed)
