@@ -144,7 +144,7 @@ def test_biarm_resume_refuses_a_planted_checkpoint(run_copy, tmp_path, name):
     # the grid's resume (`biarm compare` picks up interrupted runs) reads the same files
     from evodevo.neuromod.compare import _run_item
 
-    item = ("biarm", 1, to_dict(cfg), str(run_copy))
+    item = ("biarm", 1, to_dict(cfg), str(run_copy), None)
     _refused(lambda: _run_item(item), planted, tmp_path / "marker")
 
 
@@ -461,3 +461,52 @@ def test_grn_encoder_load_refuses_a_planted_encoder(tmp_path, kind):
 def test_every_refusal_is_an_evodevo_error():
     """The CLI prints CheckpointError's one line without a traceback."""
     assert issubclass(CheckpointError, EvodevoError)
+
+
+# ------------------------------------------------ modules that a run folder's config names
+def _planted_module(tmp_path, monkeypatch, name):
+    """A run folder holding a module ``name`` that would leave a marker when imported, on the
+    Python path (as when the folder is the working directory of ``python -m evodevo``)."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text('{"kind": "grn"}')
+    (run / "summary.json").write_text("{}")
+    marker = tmp_path / "executed"
+    (run / f"{name}.py").write_text(
+        f"open({str(marker)!r}, 'w').close()\nclass Ctl:\n    pass\nEnv = Ctl\n"
+    )
+    monkeypatch.syspath_prepend(str(run))
+    return marker
+
+
+def test_a_controller_named_by_a_run_folder_is_not_imported_from_it(tmp_path, monkeypatch):
+    from evodevo.grn.config import GrnConfig
+    from evodevo.grn.controller import make_controller
+
+    marker = _planted_module(tmp_path, monkeypatch, "planted_ctl")
+    with pytest.raises(CheckpointError, match="never runs code from a run folder"):
+        make_controller(GrnConfig(controller="planted_ctl:Ctl"), 3)
+    assert not marker.exists()
+
+
+@pytest.mark.parametrize("maker", ["biarm", "grn"])
+def test_an_environment_named_by_a_run_folder_is_not_imported_from_it(tmp_path, monkeypatch, maker):
+    from evodevo.grn.env_interface import make_env as grn_make_env
+    from evodevo.neuromod.tasks import make_env as biarm_make_env
+
+    marker = _planted_module(tmp_path, monkeypatch, f"planted_env_{maker}")
+    with pytest.raises(CheckpointError, match="inside the run folder"):
+        if maker == "biarm":
+            biarm_make_env(f"planted_env_{maker}:Planted-v0", None)
+        else:
+            grn_make_env(f"planted_env_{maker}:Planted-v0")
+    assert not marker.exists()
+
+
+def test_a_module_outside_run_folders_is_still_imported(tmp_path, monkeypatch):
+    from evodevo.safe_io import check_import
+
+    (tmp_path / "user_ctl.py").write_text("class Ctl:\n    pass\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    check_import("user_ctl:Ctl", "controller")  # a user's own module: no error
+    check_import("CartPole-v1", "environment")  # no module named: nothing to check

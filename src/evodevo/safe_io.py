@@ -26,7 +26,9 @@ one). Writes are atomic (:func:`evodevo.runs.atomic_write_bytes`).
 
 from __future__ import annotations
 
+import importlib.machinery
 import json
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -48,6 +50,8 @@ __all__ = [
     "legacy_error",
     "refuse_legacy",
     "describe_foreign",
+    "check_import",
+    "RUN_MARKERS",
 ]
 
 #: ``format`` entry of the metadata of every state file evodevo writes.
@@ -271,3 +275,39 @@ def load_torch_tensors(path: str | Path, what: str, hint: str = "") -> dict[str,
     ):
         raise CheckpointError(f"{str(p)!r} is not a saved {what} (no tensors by name){todo}")
     return dict(state)
+
+
+RUN_MARKERS = ("config.json", "summary.json")
+"""Files that make a folder a run folder (every run command writes both)."""
+
+
+def check_import(target: str, what: str) -> None:
+    """Refuse to import the module of ``target`` (``"module:attr"``, as a config's controller
+    or a Gymnasium id names it) when its file lies inside a run folder.
+
+    A config may name a module to import (a user's controller kind or environment,
+    docs/extending.md); a config read from a run folder that somebody else made could name a
+    module planted in that very folder, which the import would execute (when the folder is the
+    working directory or on the Python path). The module is located without importing anything
+    (:class:`importlib.machinery.PathFinder` reads ``sys.path``); a module already imported is
+    not looked up again. ``what`` names the value in the error.
+
+    Raises:
+        CheckpointError: the module's file is inside a folder holding :data:`RUN_MARKERS`.
+    """
+    module = target.partition(":")[0]
+    top = module.split(".")[0]
+    if ":" not in target or not top or top in sys.modules:
+        return
+    spec = importlib.machinery.PathFinder.find_spec(top)
+    if spec is None:
+        return  # the import itself reports a missing module
+    places = list(spec.submodule_search_locations or []) + ([spec.origin] if spec.origin else [])
+    for place in places:
+        for folder in Path(place).resolve().parents:
+            if all((folder / m).is_file() for m in RUN_MARKERS):
+                raise CheckpointError(
+                    f"{what} {target!r} names module {top!r}, whose file {place!r} is inside the "
+                    f"run folder {str(folder)!r}; evodevo never runs code from a run folder. "
+                    "Install or move the module elsewhere (and put that on the Python path)"
+                )

@@ -36,6 +36,7 @@ from evodevo.grn.dynamics import expression_step, motor_output
 from evodevo.grn.encoder import sensor_vector
 from evodevo.grn.genome import GrnGenome, init_genome, stack_genomes
 from evodevo.grn.mutation import clip_to_bounds, mutate_genome
+from evodevo.safe_io import check_import
 
 __all__ = [
     "Policy",
@@ -436,6 +437,7 @@ def _unknown(name: str) -> ConfigError:
 
 
 def _import_path(target: str) -> Factory:
+    check_import(target, "controller")
     module, _, attr = target.partition(":")
     try:
         return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]

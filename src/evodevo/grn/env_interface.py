@@ -18,6 +18,7 @@ import numpy as np
 
 from evodevo.errors import EvodevoError, env_module_error
 from evodevo.grn.config import GrnConfig
+from evodevo.safe_io import check_import
 
 __all__ = [
     "make_env",
@@ -50,6 +51,7 @@ def make_env(env_id: str, kwargs: dict[str, Any] | None = None, **extra: Any) ->
                 f"environment {env_id!r} needs evodevo.envs, which failed to import ({exc}); "
                 "install the kuka extra: pip install -e '.[kuka]'"
             ) from None
+    check_import(env_id, "environment")
     try:
         return gym.make(env_id, **{**(kwargs or {}), **extra})
     except gym.error.Error as exc:

@@ -23,6 +23,7 @@ from evodevo.envs.env_ids import parse_env_id
 from evodevo.errors import EvodevoError, env_module_error
 from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig, TaskConfig
 from evodevo.neuromod.padding import check_fits
+from evodevo.safe_io import check_import
 
 __all__ = ["TaskSpec", "resolve_tasks", "make_env", "tasks_from_ids"]
 
@@ -44,6 +45,7 @@ def make_env(env_id: str, max_steps: int | None) -> gym.Env:
     ``env_id`` may carry the environment's own parameters, ``ID[key=value,...]``
     (:mod:`evodevo.envs.env_ids`)."""
     base, params = parse_env_id(env_id)
+    check_import(base, "environment")
     kwargs: dict[str, Any] = {} if max_steps is None else {"max_episode_steps": int(max_steps)}
     try:
         return gym.make(base, **params, **kwargs)
