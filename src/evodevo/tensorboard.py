@@ -22,6 +22,7 @@ from typing import Any
 
 from evodevo.callbacks import Callback
 from evodevo.errors import EvodevoError
+from evodevo.runs import make_dir
 
 __all__ = [
     "writer",
@@ -45,23 +46,10 @@ def _summary_writer() -> Any:
     return SummaryWriter
 
 
-def _make_logdir(logdir: str | Path) -> Path:
-    """Create ``logdir``; a one-line error when it is a file or cannot be created."""
-    path = Path(logdir)
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise EvodevoError(
-            f"--tensorboard {str(path)!r} cannot be used as a folder ({exc.strerror or exc}); "
-            "give a folder that can be created"
-        ) from None
-    return path
-
-
 def writer(logdir: str | Path) -> Any:
     """A ``SummaryWriter`` for ``logdir``, or a one-line error naming the missing package."""
     summary_writer = _summary_writer()
-    return summary_writer(log_dir=str(_make_logdir(logdir)))
+    return summary_writer(log_dir=str(make_dir(logdir, "--tensorboard")))
 
 
 class EpisodeScalars(Callback):
@@ -162,7 +150,7 @@ class RunsExporter:
     def __init__(self, runs: str | Path, logdir: str | Path) -> None:
         _summary_writer()  # fail before any training, in one line, when tensorboard is missing
         self.runs = Path(runs)
-        self.logdir = _make_logdir(logdir)
+        self.logdir = make_dir(logdir, "--tensorboard")
 
     def on_item(self, done: int, total: int) -> None:
         """A :class:`~evodevo.progress.CommandProgress` callback: a run of the grid finished."""
