@@ -12,6 +12,7 @@ Examples::
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -20,11 +21,11 @@ import typer
 import evodevo
 from evodevo.callbacks import CallbackList
 from evodevo.cli.common import ADDRESS_HELP, check_backend, check_seed, parse_list, parse_seeds
-from evodevo.config import describe, from_dict
-from evodevo.errors import EvodevoError
+from evodevo.config import describe, from_dict, merge, parse_sets, resolve
+from evodevo.errors import ConfigError, EvodevoError
 from evodevo.neuromod.compare import contrast_table, grid_progress, run_grid, write_report
 from evodevo.neuromod.config import BiarmConfig
-from evodevo.neuromod.protocol_sweep import SweepSpec, run_sweep, sweep_table
+from evodevo.neuromod.protocol_sweep import SweepSpec, protocol_config, run_sweep, sweep_table
 from evodevo.neuromod.resolve import resolve_biarm
 from evodevo.neuromod.resume import saved_config
 from evodevo.neuromod.tasks import resolve_tasks
@@ -260,6 +261,14 @@ def compare(
     typer.echo(f"wrote {report}")
 
 
+_SWEEP_SET_HELP = (
+    "Override a config key in the base config of every run of the sweep, e.g. --set "
+    "eval.episodes=5 (repeatable; a protocol's own overrides still win; tasks come from "
+    "--tasks and the sweep file; episodes_scale replaces the sweep file's; unknown keys are an "
+    "error). Finished runs in OUT are kept as they are: give a new OUT for other overrides."
+)
+
+
 @app.command()
 def sweep(
     config: Path = typer.Option(
@@ -269,6 +278,7 @@ def sweep(
     tasks: str | None = typer.Option(None, help="Only these tasks (comma-separated ids)."),
     variants: str | None = typer.Option(None, help="Only these variants (comma-separated)."),
     seeds: str | None = typer.Option(None, help="Only these seeds, e.g. 0-4."),
+    set_: list[str] | None = typer.Option(None, "--set", help=_SWEEP_SET_HELP),
     workers: int = typer.Option(1, help="Parallel runs (worker processes)."),
     table_only: bool = typer.Option(False, help="Only rewrite the table from finished runs."),
     out: Path = typer.Option(..., help="Sweep folder (OUT/PROTOCOL/TASK/VARIANT__sSEED)."),
@@ -285,12 +295,41 @@ def sweep(
         parse_list(variants),
         parse_seeds(seeds) if seeds else None,
     )
+    spec = sweep_with_sets(spec, set_)
     if not table_only:
         set_single_thread()
         with CommandProgress("training runs", quiet):
             done = run_sweep(spec, out, workers=workers)
         typer.echo(f"trained {len(done)} run(s)")
     typer.echo(sweep_table(spec, out))
+
+
+def sweep_with_sets(spec: SweepSpec, sets: list[str] | None) -> SweepSpec:
+    """``spec`` with ``--set key=value`` in the base config of every protocol (SPEC 1.6).
+
+    Each run's config is then the :class:`~evodevo.neuromod.config.BiarmConfig` defaults, the
+    ``--set`` overrides, then its protocol's overrides (so the protocols still differ as the
+    sweep file says); ``episodes_scale`` replaces the sweep file's. Unknown keys and bad values
+    are one :class:`~evodevo.errors.ConfigError` naming the key, before any run.
+    """
+    base = parse_sets(sets)
+    if not base:
+        return spec
+    if "tasks" in base:
+        raise ConfigError(
+            "--set tasks: a sweep trains each task alone; choose them with --tasks or in the "
+            "sweep file"
+        )
+    checked = resolve(BiarmConfig, sets=sets)  # unknown keys and bad values fail here
+    scale = checked.episodes_scale if "episodes_scale" in base else spec.episodes_scale
+    base.pop("episodes_scale", None)
+    merged = {name: merge(base, over) for name, over in spec.protocols.items()}
+    for name, over in merged.items():
+        try:
+            protocol_config(BiarmConfig(), over)
+        except ConfigError as exc:
+            raise ConfigError(f"--set with protocol {name!r}: {exc}") from None
+    return dataclasses.replace(spec, protocols=merged, episodes_scale=scale)
 
 
 @app.command()
