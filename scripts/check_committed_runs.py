@@ -1,0 +1,152 @@
+"""Check that every run committed under ``docs/results`` still loads and reports the same numbers.
+
+    python scripts/check_committed_runs.py [--episodes 4] [--root docs/results] [--skip-grids]
+
+Run it after a change to the run layer, the loaders or the evaluator (it is what "every
+committed run under docs/results still loads and reports the same numbers" means in practice):
+
+* **GRN and Kuka-baseline runs** (``config.json`` of kind ``grn`` or ``baseline``): the run is
+  loaded by :func:`evodevo.grn.evaluation.load_run` (as ``grn evaluate`` loads it) and by
+  :func:`evodevo.load`; then, for every saved clean test (``eval_<objects>_<noise>_episodes.csv``
+  without a ``--set`` suffix), the first ``--episodes`` episodes of the saved champion are run
+  again on their saved seeds and must give the saved reward, success and step count.
+* **BIARM runs** (kind ``biarm``): each column loads through :func:`evodevo.load`.
+* **BIARM grids** (folders with ``runs/`` of BIARM runs and a ``report.md``): ``biarm report``
+  re-draws the tables into a copy of the folder (figures off), and every table (``.md`` and
+  ``.csv`` beside ``report.md``) must equal the committed one.
+
+Nothing is written into ``docs/results``. Exit status 1 when any check fails, with one line
+per failure; a summary line at the end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import re
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import evodevo
+import evodevo.baselines  # noqa: F401  (registers the baselines' run loader and controllers)
+from evodevo.grn.evaluation import load_run
+from evodevo.grn.evaluator import Episode, Evaluator
+from evodevo.neuromod.compare import write_report
+from evodevo.runs import read_json
+
+EVAL_FILE = re.compile(r"^eval_(test|train)_([0-9.e-]+)_episodes\.csv$")
+
+
+def _kind(folder: Path) -> str | None:
+    try:
+        return str(read_json(folder / "config.json").get("kind"))
+    except Exception:  # noqa: BLE001 - an unreadable config is reported by the loaders
+        return None
+
+
+def check_grn(folder: Path, episodes: int) -> list[str]:
+    """Load a GRN or baseline run and replay the first saved test episodes."""
+    problems: list[str] = []
+    loaded = load_run(folder)
+    evodevo.load(folder)
+    for path in sorted(folder.glob("eval_*_episodes.csv")):
+        m = EVAL_FILE.match(path.name)
+        if m is None or float(m.group(2)) != 0.0:
+            continue  # a --set test (suffixed) or a noisy one: its settings are not replayed
+        with path.open() as fh:
+            rows = [r for r in csv.DictReader(fh) if r["policy"] == "genome"][:episodes]
+        if not rows:
+            continue
+        eps = [
+            Episode(int(r["seed"]), noisy=False, test_objects=r["test_objects"] == "1")
+            for r in rows
+        ]
+        with Evaluator(loaded.config, loaded.encoder, workers=1) as ev:
+            res = ev.evaluate([loaded.genome], eps)
+        got = (res.reward[0], res.success[0].astype(int), res.steps[0])
+        want = tuple(np.array([float(r[k]) for r in rows]) for k in ("reward", "success", "steps"))
+        for name, g, w in zip(("reward", "success", "steps"), got, want, strict=True):
+            if not np.allclose(np.asarray(g, float), w, atol=1e-9):
+                problems.append(f"{path}: {name} {list(np.asarray(g, float))} != saved {list(w)}")
+    return problems
+
+
+def check_biarm(folder: Path) -> list[str]:
+    """Load every column of a BIARM run."""
+    tasks = read_json(folder / "config.json")["config"].get("tasks") or []
+    for i in range(max(1, len(tasks))):
+        evodevo.load(folder, task=i)
+    return []
+
+
+def check_grid(folder: Path) -> list[str]:
+    """Re-draw a BIARM grid's tables in a copy and compare them with the committed ones."""
+    problems: list[str] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        copy = Path(tmp) / folder.name
+        shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("*.safetensors", "*.pt"))
+        write_report(copy, figures=False)
+        for old in sorted(folder.glob("*.md")) + sorted(folder.glob("*.csv")):
+            new = copy / old.name
+            if not new.is_file():
+                problems.append(f"{old}: not written again by biarm report")
+            elif new.read_text() != old.read_text():
+                problems.append(f"{old}: biarm report writes it differently now")
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--root", type=Path, default=Path("docs/results"))
+    ap.add_argument("--episodes", type=int, default=4, help="saved test episodes replayed per run")
+    ap.add_argument("--skip-grids", action="store_true", help="do not re-draw BIARM grids")
+    args = ap.parse_args(argv)
+    failures: list[str] = []
+    counts: dict[str, int] = {}
+    t0 = time.perf_counter()
+    for cfg in sorted(args.root.rglob("config.json")):
+        folder = cfg.parent
+        kind = _kind(folder)
+        check: Any = {
+            "grn": lambda f: check_grn(f, args.episodes),
+            "baseline": lambda f: check_grn(f, args.episodes),
+            "biarm": check_biarm,
+        }.get(kind or "")
+        if check is None:
+            continue
+        try:
+            failures += check(folder)
+        except Exception as exc:  # noqa: BLE001 - every failure is reported, the rest go on
+            failures.append(f"{folder}: {type(exc).__name__}: {exc}")
+        counts[str(kind)] = counts.get(str(kind), 0) + 1
+        print(f"checked {kind} {folder}", file=sys.stderr)
+    if not args.skip_grids:
+        for report in sorted(args.root.rglob("report.md")):
+            folder = report.parent
+            if not (folder / "runs").is_dir() or not any(
+                _kind(r) == "biarm" for r in (folder / "runs").iterdir()
+            ):
+                continue
+            try:
+                failures += check_grid(folder)
+            except Exception as exc:  # noqa: BLE001
+                failures.append(f"{folder}: {type(exc).__name__}: {exc}")
+            counts["grid"] = counts.get("grid", 0) + 1
+            print(f"checked grid {folder}", file=sys.stderr)
+    for line in failures:
+        print(f"FAIL {line}")
+    print(
+        f"{sum(counts.values())} folders checked ({', '.join(f'{v} {k}' for k, v in sorted(counts.items()))}) "
+        f"in {time.perf_counter() - t0:.0f} s: {len(failures)} failure(s)"
+    )
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
