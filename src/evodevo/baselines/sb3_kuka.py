@@ -27,6 +27,7 @@ from a reset environment.
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -259,6 +260,44 @@ def buffer_refills(folder: Path) -> list[int]:
     return sorted(int(x) for x in read_json(path)) if path.is_file() else []
 
 
+@dataclass
+class _Limits:
+    """A run's budget and, with ``keep.rule: validated``, its candidates' spacing."""
+
+    max_steps: int | None
+    """Env steps (None: no step budget)."""
+    max_s: float | None
+    """Training seconds (None: no time budget)."""
+    every: int
+    """Env steps between validated candidates (0: ``keep.rule`` is not ``validated``)."""
+
+
+def _limits(cfg: KukaBaselineConfig) -> _Limits:
+    b = cfg.budget
+    max_steps = (
+        b.env_steps if b.env_steps is not None else (None if b.minutes else b.default_env_steps)
+    )
+    max_s = b.minutes * 60.0 if b.minutes is not None else None
+    every = (
+        candidate_every(max_steps, cfg.keep.candidates, cfg.keep.every_steps)
+        if cfg.keep.rule == VALIDATED
+        else 0
+    )
+    return _Limits(max_steps, max_s, every)
+
+
+@dataclass
+class _Trained:
+    """What a training session leaves for ``summary.json``."""
+
+    env_steps: int
+    train_s: float
+    eval_s: float
+    rows: list[dict[str, Any]]
+    stopped_by: str
+    keeper: ValidatedBest | None
+
+
 def train_sb3(
     cfg: KukaBaselineConfig,
     run: RunDir,
@@ -272,98 +311,135 @@ def train_sb3(
     """
     run_cb: Callback = callback if callback is not None else RunCallbacks()
     run_cb.init(run)
-    b = cfg.budget
-    max_steps = (
-        b.env_steps if b.env_steps is not None else (None if b.minutes else b.default_env_steps)
-    )
-    max_s = b.minutes * 60.0 if b.minutes is not None else None
     if resume:  # a pickle-based checkpoint is refused unopened, not silently started over
         refuse_legacy(run.path / "checkpoints", *_LEGACY)
-    validated = cfg.keep.rule == VALIDATED
-    every = (
-        candidate_every(max_steps, cfg.keep.candidates, cfg.keep.every_steps) if validated else 0
-    )
+    limits = _limits(cfg)
     env = _vec_env(cfg)
     eval_env = _vec_env(cfg)
     eval_env.seed(derive(cfg.seed, EVAL_ENV_KEY))
     folder = run.checkpoints
-    validator: ValidationCallback | None = None
-    scorer = Evaluator(cfg.evaluator_config(), None) if validated else None
+    scorer = Evaluator(cfg.evaluator_config(), None) if cfg.keep.rule == VALIDATED else None
     try:
         # A run killed before its first checkpoint has nothing to continue: start it.
         resume = resume and bool(checkpoint_steps(folder) if folder.is_dir() else [])
-        if resume:
-            model, clock, rows = _resume_state(run, cfg, env)
-        else:
-            model, clock, rows = build_model(cfg, env), TrainClock(), []
-        # SB3's default logger creates an empty /tmp/SB3-<date> folder on every learn();
-        # ours records nothing outside the run directory.
-        model.set_logger(Logger(folder=None, output_formats=[]))
-        done_steps = int(model.num_timesteps)
-        evaluator = TimedEvalCallback(
-            eval_env,
-            clock,
-            run,
-            quiet,
-            run_cb,
-            n_eval_episodes=b.eval_episodes,
-            eval_freq=b.eval_every_steps,
-            deterministic=True,
-            verbose=0,
-            warn=False,
-        )
-        evaluator.rows = rows
-        budget = BudgetCallback(clock, max_steps, max_s)
-        if scorer is not None:
-            validator = ValidationCallback(
-                _keeper(cfg, folder, done_steps),
-                scorer,
-                every,
-                clock,
-                run,
-                cfg.method,
-            )
-        callbacks = CallbackList(
-            [
-                *([validator] if validator is not None else []),  # before the checkpoint
-                SafeCheckpointCallback(
-                    b.checkpoint_every_steps,
-                    str(folder),
-                    name_prefix=CKPT_PREFIX,
-                    save_replay_buffer=cfg.method == "td3",
-                ),
-                ClockCallback(clock, b.checkpoint_every_steps, folder),
-                evaluator,
-                budget,
-                StepsCallback(run_cb),
-            ]
-        )
-        run_cb.on_steps(done_steps)
-        remaining = (max_steps - done_steps) if max_steps is not None else _UNLIMITED_STEPS
-        clock.begin()
-        if remaining > 0 and (max_s is None or clock.train_s < max_s):
-            model.learn(remaining, callback=callbacks, reset_num_timesteps=not resume)
-        train_s = clock.train_s
-        if validator is not None:
-            validator.candidate(model)  # the final model is the last candidate
-            save_sb3(model, run / LAST_MODEL_FILE)
-            _return_kept(validator.keeper, folder, run / MODEL_FILE)
-        else:
-            save_sb3(model, run / MODEL_FILE)
-        write_clock(folder, model.num_timesteps, clock)
+        done = _train(cfg, run, (env, eval_env), scorer, limits, resume, quiet, run_cb)
     finally:
         env.close()
         eval_env.close()
         if scorer is not None:
             scorer.close()
-    summary = summarise(
-        cfg, int(model.num_timesteps), train_s, clock.eval_s, evaluator.rows, budget.stopped_by
-    )
-    summary |= summary_fields(cfg.keep.rule, validator.keeper if validator else None)
+    summary = summarise(cfg, done.env_steps, done.train_s, done.eval_s, done.rows, done.stopped_by)
+    summary |= summary_fields(cfg.keep.rule, done.keeper)
     if refills := buffer_refills(folder):
         summary["replay_buffer_refilled_at"] = refills
     run.write_summary(summary)
     return summary
+
+
+def _train(
+    cfg: KukaBaselineConfig,
+    run: RunDir,
+    envs: tuple[Any, Any],
+    scorer: Evaluator | None,
+    limits: _Limits,
+    resume: bool,
+    quiet: bool,
+    run_cb: Callback,
+) -> _Trained:
+    """One session: build or restore the model, learn to the budget, save the returned model.
+
+    ``envs`` are the training env and EvalCallback's; ``scorer`` scores the validated
+    candidates (None without ``keep.rule: validated``).
+    """
+    env, eval_env = envs
+    folder = run.checkpoints
+    if resume:
+        model, clock, rows = _resume_state(run, cfg, env)
+    else:
+        model, clock, rows = build_model(cfg, env), TrainClock(), []
+    # SB3's default logger creates an empty /tmp/SB3-<date> folder on every learn();
+    # ours records nothing outside the run directory.
+    model.set_logger(Logger(folder=None, output_formats=[]))
+    done_steps = int(model.num_timesteps)
+    validator: ValidationCallback | None = None
+    if scorer is not None:
+        keeper = _keeper(cfg, folder, done_steps)
+        validator = ValidationCallback(keeper, scorer, limits.every, clock, run, cfg.method)
+    evaluator, budget, callbacks = _callbacks(
+        cfg, run, eval_env, clock, rows, validator, limits, quiet, run_cb
+    )
+    run_cb.on_steps(done_steps)
+    remaining = (
+        (limits.max_steps - done_steps) if limits.max_steps is not None else _UNLIMITED_STEPS
+    )
+    clock.begin()
+    if remaining > 0 and (limits.max_s is None or clock.train_s < limits.max_s):
+        model.learn(remaining, callback=callbacks, reset_num_timesteps=not resume)
+    train_s = clock.train_s
+    if validator is not None:
+        validator.candidate(model)  # the final model is the last candidate
+        save_sb3(model, run / LAST_MODEL_FILE)
+        _return_kept(validator.keeper, folder, run / MODEL_FILE)
+    else:
+        save_sb3(model, run / MODEL_FILE)
+    write_clock(folder, model.num_timesteps, clock)
+    keeper_out = validator.keeper if validator else None
+    return _Trained(
+        int(model.num_timesteps),
+        train_s,
+        clock.eval_s,
+        evaluator.rows,
+        budget.stopped_by,
+        keeper_out,
+    )
+
+
+def _callbacks(
+    cfg: KukaBaselineConfig,
+    run: RunDir,
+    eval_env: Any,
+    clock: TrainClock,
+    rows: list[dict[str, Any]],
+    validator: ValidationCallback | None,
+    limits: _Limits,
+    quiet: bool,
+    run_cb: Callback,
+) -> tuple[TimedEvalCallback, BudgetCallback, CallbackList]:
+    """SB3's callbacks of a session, in the order they run, and the two read after it.
+
+    ``rows``: the learning curve so far (a resumed run's).
+    """
+    b = cfg.budget
+    evaluator = TimedEvalCallback(
+        eval_env,
+        clock,
+        run,
+        quiet,
+        run_cb,
+        n_eval_episodes=b.eval_episodes,
+        eval_freq=b.eval_every_steps,
+        deterministic=True,
+        verbose=0,
+        warn=False,
+    )
+    evaluator.rows = rows
+    budget = BudgetCallback(clock, limits.max_steps, limits.max_s)
+    callbacks = CallbackList(
+        [
+            *([validator] if validator is not None else []),  # before the checkpoint
+            SafeCheckpointCallback(
+                b.checkpoint_every_steps,
+                str(run.checkpoints),
+                name_prefix=CKPT_PREFIX,
+                save_replay_buffer=cfg.method == "td3",
+            ),
+            ClockCallback(clock, b.checkpoint_every_steps, run.checkpoints),
+            evaluator,
+            budget,
+            StepsCallback(run_cb),
+        ]
+    )
+    return evaluator, budget, callbacks
 
 
 def _keeper(cfg: KukaBaselineConfig, folder: Path, upto: int) -> ValidatedBest:
