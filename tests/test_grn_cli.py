@@ -103,6 +103,22 @@ def test_evaluate_json_noise_ablate_plot_video(fake_run, tmp_path):
     assert gif.stat().st_size > 0
 
 
+def test_ablate_with_set_writes_its_own_files_and_refuses_training_keys(fake_run):
+    invoke("ablate", fake_run, "--test-episodes", 2)
+    plain = (fake_run / "ablations.json").read_text()
+    res = invoke("ablate", fake_run, "--test-episodes", 2, "--set", "env.kwargs.max_steps=3")
+    changed = sorted(p.name for p in fake_run.glob("ablations_set-*"))
+    assert [p.rsplit(".", 1)[1] for p in changed] == ["csv", "json", "md"]
+    meta = json.loads((fake_run / changed[1]).read_text())
+    assert meta["overrides"] == {"env": {"kwargs": {"max_steps": 3}}}
+    assert "no_regulation" in res.output
+    assert (fake_run / "ablations.json").read_text() == plain  # the plain test is kept
+    assert "overrides" not in json.loads(plain)
+    assert (fake_run / "figures" / changed[0].replace(".csv", ".png")).is_file()
+    with pytest.raises(EvodevoError, match="genome"):
+        invoke("ablate", fake_run, "--test-episodes", 2, "--set", "genome.regulation=false")
+
+
 def test_open_loop_and_blind_runs(tmp_path):
     cfg = tmp_path / "fake.yaml"
     cfg.write_text(

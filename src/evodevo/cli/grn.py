@@ -25,6 +25,7 @@ from evodevo.cli.common import (
     SET_HELP,
     TEST_EPISODES_HELP,
     TEST_SEED_HELP,
+    TEST_SET_HELP,
     add_evaluate_command,
     check_backend,
     check_seed,
@@ -34,7 +35,7 @@ from evodevo.cli.common import (
 )
 from evodevo.config import load_config, merge, parse_sets, to_dict
 from evodevo.errors import EvodevoError
-from evodevo.grn.ablations import run_ablations
+from evodevo.grn.ablations import ablations_stem, run_ablations
 from evodevo.grn.config import GrnConfig, vision_preset
 from evodevo.grn.evaluation import evaluate_baselines
 from evodevo.grn.evaluation import test_episodes as fixed_test_episodes
@@ -390,6 +391,7 @@ def ablate(
     modulators: bool = typer.Option(
         False, "--modulators", help="Neuromodulated GRN: set each gamma to 0 instead (SPEC §5)."
     ),
+    set_: list[str] | None = typer.Option(None, "--set", help=TEST_SET_HELP),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar (stderr)."),
 ) -> None:
     """The nine ablations of SPEC §2.5 on the best genome: ablations.md/.csv and a figure."""
@@ -399,17 +401,20 @@ def ablate(
     check_seed("--test-seed", seed)
     if objects not in ("test", "train"):
         raise EvodevoError(f"--objects {objects!r} is not accepted; choose test or train")
+    overrides = parse_sets(set_)
     if modulators:
         with CommandProgress("modulator ablations", quiet):
-            run_modulator_ablations(run_dir, episodes, objects, seed, workers)
-        typer.echo((run_dir / "modulator_ablations.md").read_text().rstrip())
+            run_modulator_ablations(run_dir, episodes, objects, seed, workers, overrides)
+        stem = ablations_stem(overrides, "modulator_ablations")
+        typer.echo((run_dir / f"{stem}.md").read_text().rstrip())
         return
     with CommandProgress("ablations", quiet):
-        run_ablations(run_dir, episodes, objects, seed, workers)
+        run_ablations(run_dir, episodes, objects, seed, workers, overrides)
     run = RunDir(run_dir, create=False)
     (run.path / "figures").mkdir(exist_ok=True)
-    plot_ablations(run, run.path / "figures")
-    typer.echo((run.path / "ablations.md").read_text().rstrip())
+    stem = ablations_stem(overrides)
+    plot_ablations(run, run.path / "figures", stem)
+    typer.echo((run.path / f"{stem}.md").read_text().rstrip())
 
 
 @app.command()

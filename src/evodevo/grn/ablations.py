@@ -12,7 +12,7 @@ Wilson interval, the change against the intact genome with a Newcombe (Wilson-sc
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -21,14 +21,21 @@ import numpy as np
 from evodevo.config import replace
 from evodevo.errors import EvodevoError
 from evodevo.grn.config import GrnConfig
-from evodevo.grn.evaluation import load_run, test_episodes
+from evodevo.grn.evaluation import load_run, set_suffix, test_episodes
 from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.genome import GrnGenome
 from evodevo.runs import atomic_write_text, write_json
 from evodevo.seeding import np_rng
 from evodevo.stats import fisher_exact, holm, mcnemar_exact, rate
 
-__all__ = ["ABLATIONS", "ablate", "difference_interval", "run_ablations", "ABLATION_KEY"]
+__all__ = [
+    "ABLATIONS",
+    "ablate",
+    "difference_interval",
+    "run_ablations",
+    "ablations_stem",
+    "ABLATION_KEY",
+]
 
 ABLATION_KEY = 5
 """Seed stream of the random draws of the ablations (under the run seed)."""
@@ -144,12 +151,16 @@ def run_ablations(
     objects: str = "test",
     seed: int | None = None,
     workers: int = 1,
+    overrides: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate the intact best genome and its nine ablations on the same test episodes.
 
-    Writes ``ablations.csv``, ``ablations.md`` and ``ablations.json`` into the run directory.
+    Writes ``ablations.csv``, ``ablations.md`` and ``ablations.json`` into the run directory;
+    ``overrides`` (``--set``, ``evaluation.*`` and ``env.*`` only:
+    :func:`~evodevo.grn.evaluation.test_overrides`) change the test, and the files get the
+    suffix of :func:`~evodevo.grn.evaluation.set_suffix` (:func:`ablations_stem`).
     """
-    loaded = load_run(path)
+    loaded = load_run(path, overrides)
     if not isinstance(loaded.genome, GrnGenome):
         raise EvodevoError(
             f"ablations apply to GRN genomes; this run's controller is {loaded.kind!r}"
@@ -174,10 +185,24 @@ def run_ablations(
             rows.append(_row(name, int(res.success.sum()), n, k0, n, res.success[0], s0))
     add_holm(rows)
     run = loaded.run
-    run.write_csv("ablations.csv", rows)
-    write_json(run / "ablations.json", {"objects": objects, "test_seed": test_seed, "rows": rows})
-    atomic_write_text(run / "ablations.md", ablations_markdown(rows, objects, test_seed))
+    stem = ablations_stem(overrides)
+    run.write_csv(f"{stem}.csv", rows)
+    meta: dict[str, Any] = {"objects": objects, "test_seed": test_seed}
+    if overrides:
+        meta["overrides"] = dict(overrides)
+    write_json(run / f"{stem}.json", {**meta, "rows": rows})
+    atomic_write_text(run / f"{stem}.md", ablations_markdown(rows, objects, test_seed))
     return rows
+
+
+def ablations_stem(overrides: Mapping[str, Any] | None = None, kind: str = "ablations") -> str:
+    """Base name of the ablation files: ``ablations`` (or ``modulator_ablations``), with the
+    suffix of a test changed by ``--set``.
+
+    >>> ablations_stem(), ablations_stem({"evaluation": {"max_steps": 4}})
+    ('ablations', 'ablations_set-6ba60c9b')
+    """
+    return f"{kind}{set_suffix(overrides)}"
 
 
 def _row(

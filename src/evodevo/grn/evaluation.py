@@ -33,7 +33,15 @@ from evodevo.seed_split import range_label
 from evodevo.seeding import derive
 from evodevo.stats import rate
 
-__all__ = ["LoadedRun", "load_run", "test_episodes", "rate_dict", "evaluate_run", "eval_name"]
+__all__ = [
+    "LoadedRun",
+    "load_run",
+    "test_episodes",
+    "rate_dict",
+    "evaluate_run",
+    "eval_name",
+    "set_suffix",
+]
 
 
 @dataclass
@@ -143,11 +151,20 @@ def eval_name(objects: str, noise: float, overrides: Mapping[str, Any] | None = 
     >>> eval_name("test", 0.03)
     'eval_test_0.03'
     """
-    base = f"eval_{objects}_{noise:g}"
+    return f"eval_{objects}_{noise:g}{set_suffix(overrides)}"
+
+
+def set_suffix(overrides: Mapping[str, Any] | None) -> str:
+    """The file-name suffix of a test changed by ``--set``: ``""`` for none, else ``_set-`` and
+    a short digest of the changes, so a changed test never overwrites the plain one.
+
+    >>> set_suffix(None), set_suffix({"env": {"kwargs": {"dark_after": 2}}})
+    ('', '_set-33390c09')
+    """
     if not overrides:
-        return base
+        return ""
     digest = hashlib.sha256(json.dumps(overrides, sort_keys=True).encode()).hexdigest()[:8]
-    return f"{base}_set-{digest}"
+    return f"_set-{digest}"
 
 
 def _rows(policy: str, episodes: list[Episode], res: EpisodeResults) -> list[dict[str, Any]]:

@@ -127,12 +127,13 @@ def plot_rolling(run: RunDir, out: Path) -> list[Path]:
     return paths
 
 
-def plot_ablations(run: RunDir, out: Path) -> list[Path]:
-    """Change in success per ablation with its 95 % interval."""
-    if not (run / "ablations.csv").is_file():
+def plot_ablations(run: RunDir, out: Path, stem: str = "ablations") -> list[Path]:
+    """Change in success per ablation with its 95 % interval (``{stem}.csv`` →
+    ``{stem}.png``; the stem of a ``--set`` test: :func:`evodevo.grn.ablations.ablations_stem`)."""
+    if not (run / f"{stem}.csv").is_file():
         return []
     plt = _plt()
-    rows = [r for r in run.read_csv("ablations.csv") if r["ablation"] != "intact"]
+    rows = [r for r in run.read_csv(f"{stem}.csv") if r["ablation"] != "intact"]
     names = [r["ablation"] for r in rows]
     change = 100 * _col(rows, "change")
     lo = 100 * _col(rows, "change_ci_low")
@@ -145,7 +146,7 @@ def plot_ablations(run: RunDir, out: Path) -> list[Path]:
     ax.axvline(0, color="k", lw=0.8)
     ax.set_xlabel("change in test success vs intact genome (points, 95 % CI)")
     fig.tight_layout()
-    p = out / "ablations.png"
+    p = out / f"{stem}.png"
     fig.savefig(p, dpi=120)
     plt.close(fig)
     return [p]

@@ -385,10 +385,10 @@ MODULATOR_ABLATIONS: dict[str, tuple[int, ...]] = {
 """Ablation name → modulators whose gamma is set to 0 (all four: the plain GRN dynamics)."""
 
 
-def _loaded_neuromod(path: str | Path) -> Any:
+def _loaded_neuromod(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Any:
     from evodevo.grn.evaluation import load_run
 
-    loaded = load_run(path)
+    loaded = load_run(path, overrides)
     if not isinstance(loaded.genome, NeuromodGrnGenome):
         raise EvodevoError(
             f"modulator ablations need a neuromodulated run; this run's controller is "
@@ -403,20 +403,22 @@ def run_modulator_ablations(
     objects: str = "test",
     seed: int | None = None,
     workers: int = 1,
+    overrides: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Test the best genome intact and with each gamma set to 0, on the same test episodes.
 
     Writes ``modulator_ablations.{csv,json,md}`` into the run directory (change vs intact with a
-    Newcombe 95 % interval, Fisher exact p; the layout of :mod:`evodevo.grn.ablations`).
+    Newcombe 95 % interval, Fisher exact p; the layout of :mod:`evodevo.grn.ablations`);
+    ``overrides`` change the test as in :func:`evodevo.grn.ablations.run_ablations`.
     """
-    from evodevo.grn.ablations import _row, ablations_markdown, add_holm
+    from evodevo.grn.ablations import _row, ablations_markdown, ablations_stem, add_holm
     from evodevo.grn.evaluation import test_episodes
     from evodevo.grn.evaluator import Evaluator
     from evodevo.runs import atomic_write_text, write_json
 
     if objects not in ("test", "train"):
         raise EvodevoError(f"objects {objects!r} is not accepted; choose test or train")
-    loaded = _loaded_neuromod(path)
+    loaded = _loaded_neuromod(path, overrides)
     cfg = loaded.config
     n = int(episodes if episodes is not None else cfg.evaluation.test_episodes)
     if n < 1:
@@ -441,17 +443,16 @@ def run_modulator_ablations(
         row["mean_reward"] = float(res.reward[i].mean())
     rows[0]["gamma"] = [float(v) for v in genome.gamma]
     run = loaded.run
-    run.write_csv(
-        "modulator_ablations.csv", [{k: v for k, v in r.items() if k != "gamma"} for r in rows]
-    )
-    write_json(
-        run / "modulator_ablations.json",
-        {"objects": objects, "test_seed": test_seed, "gamma": rows[0]["gamma"], "rows": rows},
-    )
+    stem = ablations_stem(overrides, "modulator_ablations")
+    run.write_csv(f"{stem}.csv", [{k: v for k, v in r.items() if k != "gamma"} for r in rows])
+    meta: dict[str, Any] = {"objects": objects, "test_seed": test_seed, "gamma": rows[0]["gamma"]}
+    if overrides:
+        meta["overrides"] = dict(overrides)
+    write_json(run / f"{stem}.json", {**meta, "rows": rows})
     md = ablations_markdown(rows, objects, test_seed).replace(
         "Ablations of the best genome", "Modulator ablations (gamma_m = 0) of the best genome"
     )
-    atomic_write_text(run / "modulator_ablations.md", md)
+    atomic_write_text(run / f"{stem}.md", md)
     return rows
 
 
