@@ -48,7 +48,14 @@ from evodevo.return_rule import VALIDATED, ValidatedBest, summary_fields
 from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
 from evodevo.safe_io import legacy_error
 
-__all__ = ["NEAT_TEMPLATE", "write_neat_config", "NeatState", "RunReporter", "train_neat"]
+__all__ = [
+    "NEAT_TEMPLATE",
+    "write_neat_config",
+    "NeatState",
+    "RunReporter",
+    "NeatFitness",
+    "train_neat",
+]
 
 NEAT_INI = "neat.ini"
 STATE_FILE = "neat_state.json"
@@ -343,6 +350,92 @@ def _restore(run: RunDir) -> tuple[Any, NeatState]:
     return pop, state
 
 
+class NeatFitness:
+    """neat-python's fitness function: a generation's networks scored by the GRN's evaluator.
+
+    Every network meets the generation's training episodes (common random numbers); fitness is
+    Eq. 4.6, minus ``evaluation.distance_weight`` times the shaped distance term when that is
+    set (SPEC §2.4). Each call books the generation into ``state`` (steps, episodes, training
+    time, the history row) and, with ``keeper``, scores its best network on the validation
+    episodes after the clock (validation is not training time).
+    """
+
+    def __init__(
+        self,
+        cfg: KukaBaselineConfig,
+        evaluator: Evaluator,
+        ini: str,
+        state: NeatState,
+        keeper: ValidatedBest | None,
+    ) -> None:
+        self.cfg = cfg
+        self.weight = evaluator.config.evaluation.distance_weight
+        self.evaluator = evaluator
+        self.ini = ini
+        self.state = state
+        self.keeper = keeper
+
+    def __call__(self, genomes: list[tuple[int, Any]], config: Any) -> None:
+        cfg, state, weight = self.cfg, self.state, self.weight
+        t0 = time.perf_counter()
+        episodes = training_episodes(
+            cfg.seed, EPISODE_KEY, state.generation, cfg.neat.episodes, cfg.neat.noisy_fraction
+        )
+        nets = [NeatNet.from_genome(g, self.ini) for _, g in genomes]
+        res = self.evaluator.evaluate(nets, episodes, measure_distance=weight > 0)
+        fit = fitness_matrix(res.reward, res.success)
+        if weight > 0 and res.distance is not None:
+            fit = fit - weight * distance_penalty(res.distance)
+        for (_, g), f in zip(genomes, fit, strict=True):
+            g.fitness = float(f)
+        best = int(np.argmax(fit))
+        state.best = nets[best]
+        state.env_steps += res.env_steps
+        state.episodes += int(res.reward.size)
+        state.episodes_saved += res.episodes_saved
+        state.train_s += time.perf_counter() - t0
+        if self.keeper is not None:  # after the clock: validation is not training time
+            self.keeper.check(
+                self.evaluator, nets[best], state.generation, {"genome": nets[best].genome}
+            )
+        state.history.append(_history_row(state, fit, res.success_rate, best, genomes[best][1]))
+        state.generation += 1
+
+
+def _history_row(
+    state: NeatState, fit: np.ndarray, success: np.ndarray, best: int, genome: Any
+) -> dict[str, Any]:
+    """The ``history.csv`` row of the generation just scored (``best``: the index of its best
+    genome, ``genome``)."""
+    return {
+        "generation": state.generation,
+        "best_fitness": float(fit[best]),
+        "mean_fitness": float(fit.mean()),
+        "best_success": float(success[best]),
+        "mean_success": float(success.mean()),
+        "best_connections": sum(1 for c in genome.connections.values() if c.enabled),
+        "episodes": state.episodes,
+        "env_steps": state.env_steps,
+        "elapsed_s": state.train_s,
+        "episodes_saved": state.episodes_saved,
+    }
+
+
+def _keeper(cfg: KukaBaselineConfig, run: RunDir, state: NeatState) -> ValidatedBest | None:
+    """``keep.rule: validated``: the kept candidate so far (resumed: without the generations
+    to evaluate again); None for ``keep.rule: last``."""
+    if cfg.keep.rule != VALIDATED:
+        return None
+    v = cfg.evaluation
+    return ValidatedBest.load(
+        run.checkpoints / VALIDATION_FILE,
+        v.validation_seed,
+        v.validation_episodes,
+        "generation",
+        upto=state.generation - 1,
+    )
+
+
 def train_neat(
     cfg: KukaBaselineConfig,
     run: RunDir,
@@ -362,7 +455,7 @@ def train_neat(
     run ends within one generation past it), else ``neat.generations``. ``callback`` hears every
     generation's history and learning-curve rows once they are written.
     """
-    import neat
+    import neat  # optional dependency: neat
 
     callback = callback if callback is not None else CallbackList()
     callback.init(run)
@@ -383,60 +476,11 @@ def train_neat(
             ini = write_neat_config(cfg, ev.n_actions, run)
             pop = neat.Population(neat_config(ini), seed=cfg.seed)
             state = NeatState()
-        keeper: ValidatedBest | None = None
-        if cfg.keep.rule == VALIDATED:  # resumed: without the generations to evaluate again
-            v = cfg.evaluation
-            keeper = ValidatedBest.load(
-                run.checkpoints / VALIDATION_FILE,
-                v.validation_seed,
-                v.validation_episodes,
-                "generation",
-                upto=state.generation - 1,
-            )
+        keeper = _keeper(cfg, run, state)
         reporter = RunReporter(run, cfg, state, quiet, callback, population=pop, keeper=keeper)
         pop.add_reporter(reporter)
         callback.on_steps(state.env_steps)
-
-        def fitness(genomes: list[tuple[int, Any]], config: Any) -> None:
-            t0 = time.perf_counter()
-            episodes = training_episodes(
-                cfg.seed, EPISODE_KEY, state.generation, cfg.neat.episodes, cfg.neat.noisy_fraction
-            )
-            nets = [NeatNet.from_genome(g, ini) for _, g in genomes]
-            weight = ecfg.evaluation.distance_weight  # the GRN's shaped training term, if set
-            res = ev.evaluate(nets, episodes, measure_distance=weight > 0)
-            fit = fitness_matrix(res.reward, res.success)
-            if weight > 0 and res.distance is not None:
-                fit = fit - weight * distance_penalty(res.distance)
-            for (_, g), f in zip(genomes, fit, strict=True):
-                g.fitness = float(f)
-            best = int(np.argmax(fit))
-            succ = res.success_rate
-            state.best = nets[best]
-            state.env_steps += res.env_steps
-            state.episodes += int(res.reward.size)
-            state.episodes_saved += res.episodes_saved
-            state.train_s += time.perf_counter() - t0
-            if keeper is not None:  # after the clock: validation is not training time
-                keeper.check(ev, nets[best], state.generation, {"genome": nets[best].genome})
-            state.history.append(
-                {
-                    "generation": state.generation,
-                    "best_fitness": float(fit[best]),
-                    "mean_fitness": float(fit.mean()),
-                    "best_success": float(succ[best]),
-                    "mean_success": float(succ.mean()),
-                    "best_connections": sum(
-                        1 for c in genomes[best][1].connections.values() if c.enabled
-                    ),
-                    "episodes": state.episodes,
-                    "env_steps": state.env_steps,
-                    "elapsed_s": state.train_s,
-                    "episodes_saved": state.episodes_saved,
-                }
-            )
-            state.generation += 1
-
+        fitness = NeatFitness(cfg, ev, ini, state, keeper)
         while _stop_reason(cfg, state) is None:
             pop.run(fitness, 1)
         reporter.write_outputs()
