@@ -55,7 +55,9 @@ def test_every_training_and_test_command_takes_set():
         "biarm train",
         "biarm compare",
         "biarm sweep",
+        "grn ablate",
     }
+    assert any("--set" in p.opts for p in root.get_command(ctx, "reproduce").params)
 
 
 def test_sweep_set_is_the_base_config_of_every_protocol(sweep_file):
@@ -99,3 +101,13 @@ def test_sweep_set_unknown_or_bad_key_is_one_clear_error(tmp_path, sweep_file, s
     assert isinstance(res.exception, ConfigError), (res.output, res.exception)
     assert match in str(res.exception) and "\n" not in str(res.exception).strip()
     assert not out.exists()  # before any run
+
+
+def test_reproduce_set_reaches_the_budget(tmp_path):
+    out = tmp_path / "rp"
+    base = ["reproduce", "--out", str(out), "--plan"]
+    res = runner.invoke(app, [*base, "--set", "grn.seeds='5'", "--set", "grn.control_seeds='5'"])
+    assert res.exit_code == 0, (res.output, res.exception)
+    assert "grn-evolve-plain-s5" in res.output and "grn-evolve-plain-s0" not in res.output
+    res = runner.invoke(app, [*base, "--set", "grn.nope=3"])
+    assert isinstance(res.exception, ConfigError) and "grn.nope" in str(res.exception)

@@ -40,6 +40,12 @@ def reproduce(
     old_seed: int | None = typer.Option(
         None, "--seed", hidden=True, help="Deprecated name of --seed-offset."
     ),
+    set_: list[str] | None = typer.Option(
+        None,
+        "--set",
+        help="Override a budget key, e.g. --set grn.population=8 or --set biarm.seeds=0-1 "
+        "(repeatable; after the preset or --config; unknown keys are an error).",
+    ),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar over the steps (stderr)."),
 ) -> None:
     """Rerun BIARM and the GRN protocol at a budget (resumable) and write OUT/report.md and .html."""
@@ -56,4 +62,5 @@ def reproduce(
         only=only,
         show_plan=show_plan,
         quiet=quiet,
+        sets=set_,
     )

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from evodevo.config import load_config, to_dict
+from evodevo.config import resolve, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.progress import StepBar
 from evodevo.reproduce.budget import PRESETS, ReproduceConfig
@@ -428,8 +428,14 @@ def run_reproduce(
     only: list[str] | None = None,
     show_plan: bool = False,
     quiet: bool = False,
+    sets: list[str] | None = None,
 ) -> Path:
     """Run (or resume) every step of ``budget`` into ``out`` and write the report; return its path.
+
+    The budget is resolved in the one order of :func:`evodevo.config.resolve`: the
+    :class:`ReproduceConfig` defaults, then the preset ``budget`` (or, instead of it, the
+    ``config`` file), then ``sets`` (``--set key=value`` on budget keys, e.g.
+    ``grn.population=8`` or ``biarm.seeds=0-1``), then ``workers``.
 
     ``only``: shell-style patterns of step names (e.g. ``kuka-*-td3-x5-s0``); the other steps
     are left as they are, and the report still covers the whole budget (its unfinished parts
@@ -442,16 +448,11 @@ def run_reproduce(
         raise EvodevoError(
             f"--budget {budget!r} is not a budget; choose one of {', '.join(PRESETS)}"
         )
-    # --config FILE replaces the preset; --workers overrides both.
-    cfg = (
-        load_config(ReproduceConfig, config, None)
-        if config
-        else load_config(ReproduceConfig, None, PRESETS[budget])
-    )
-    if workers is not None:
-        if workers < 1:
-            raise EvodevoError(f"--workers {workers} must be >= 1")
-        cfg.workers = workers
+    if workers is not None and workers < 1:
+        raise EvodevoError(f"--workers {workers} must be >= 1")
+    # --config FILE replaces the preset; --set and --workers override both.
+    preset = None if config else PRESETS[budget]
+    cfg = resolve(ReproduceConfig, preset, config, sets, {"workers": workers})
     if seed:
         cfg.grn.seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.grn.seeds))
         cfg.grn.control_seeds = ",".join(str(s + seed) for s in parse_seeds(cfg.grn.control_seeds))
