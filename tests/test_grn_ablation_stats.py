@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from evodevo.grn.ablations import _row, ablations_markdown, add_holm
+from evodevo.grn.ablations import ablation_row, ablations_markdown, add_holm
 from evodevo.stats import holm
 
 
@@ -21,9 +21,9 @@ def test_rows_pair_each_ablation_with_intact_on_the_same_episodes():
     worse = np.array([0] * 10 + [0] * 10, dtype=bool)  # loses the 10 intact wins: 0 vs 10
     swapped = np.array([0] * 10 + [1] * 10, dtype=bool)  # same rate, 10 vs 10 discordant
     rows = [
-        _row("intact", 10, 20, 10, 20, intact, intact),
-        _row("worse", 0, 20, 10, 20, worse, intact),
-        _row("swapped", 10, 20, 10, 20, swapped, intact),
+        ablation_row("intact", 10, 20, 10, 20, intact, intact),
+        ablation_row("worse", 0, 20, 10, 20, worse, intact),
+        ablation_row("swapped", 10, 20, 10, 20, swapped, intact),
     ]
     add_holm(rows)
     assert rows[0]["mcnemar_p"] == 1.0 and "mcnemar_p_holm" not in rows[0]

@@ -178,11 +178,11 @@ def run_ablations(
         full = ev.evaluate([loaded.genome], eps)
         s0 = full.success[0]
         k0 = int(s0.sum())
-        rows.append(_row("intact", k0, n, k0, n, s0, s0))
+        rows.append(ablation_row("intact", k0, n, k0, n, s0, s0))
         for i, name in enumerate(ABLATIONS):
             genome, acfg = ablate(loaded.genome, name, cfg, np_rng(cfg.seed, ABLATION_KEY, i))
             res = ev.evaluate([genome], eps, config=acfg)
-            rows.append(_row(name, int(res.success.sum()), n, k0, n, res.success[0], s0))
+            rows.append(ablation_row(name, int(res.success.sum()), n, k0, n, res.success[0], s0))
     add_holm(rows)
     run = loaded.run
     stem = ablations_stem(overrides)
@@ -205,7 +205,7 @@ def ablations_stem(overrides: Mapping[str, Any] | None = None, kind: str = "abla
     return f"{kind}{set_suffix(overrides)}"
 
 
-def _row(
+def ablation_row(
     name: str,
     k: int,
     n: int,
@@ -276,4 +276,4 @@ def ablations_markdown(rows: list[dict[str, Any]], objects: str, test_seed: int)
     return "\n".join(lines) + "\n"
 
 
-__all__ += ["ablations_markdown", "add_holm"]
+__all__ += ["ablations_markdown", "add_holm", "ablation_row"]

@@ -411,7 +411,7 @@ def run_modulator_ablations(
     Newcombe 95 % interval, Fisher exact p; the layout of :mod:`evodevo.grn.ablations`);
     ``overrides`` change the test as in :func:`evodevo.grn.ablations.run_ablations`.
     """
-    from evodevo.grn.ablations import _row, ablations_markdown, ablations_stem, add_holm
+    from evodevo.grn.ablations import ablation_row, ablations_markdown, ablations_stem, add_holm
     from evodevo.grn.evaluation import test_episodes
     from evodevo.grn.evaluator import Evaluator
     from evodevo.runs import atomic_write_text, write_json
@@ -435,9 +435,9 @@ def run_modulator_ablations(
         res = ev.evaluate(variants, eps)
     k = res.success.sum(axis=1).astype(int)
     s0 = res.success[0]
-    rows = [_row("intact", int(k[0]), n, int(k[0]), n, s0, s0)]
+    rows = [ablation_row("intact", int(k[0]), n, int(k[0]), n, s0, s0)]
     for i, name in enumerate(MODULATOR_ABLATIONS, start=1):
-        rows.append(_row(name, int(k[i]), n, int(k[0]), n, res.success[i], s0))
+        rows.append(ablation_row(name, int(k[i]), n, int(k[0]), n, res.success[i], s0))
     add_holm(rows)
     for i, row in enumerate(rows):
         row["mean_reward"] = float(res.reward[i].mean())
