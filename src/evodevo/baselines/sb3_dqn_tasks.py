@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 import random
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, cast
@@ -331,6 +331,58 @@ def _keep_rows(run: RunDir, name: str, fields: list[str], tasks_done: int) -> No
         run.write_csv(name, rows, fields)
 
 
+def _progress(
+    run: RunDir, resume: bool
+) -> tuple[list[dict[str, Any]], int, Mapping[str, Any] | None]:
+    """Where a run stands: the finished tasks' results, the env step and the time of earlier
+    sessions (None for a fresh start, whose old ``metrics.csv``/``neuromod.csv`` go; a resumed
+    run keeps their rows of the finished tasks)."""
+    path = run.checkpoints / PROGRESS_FILE
+    if resume and path.is_file():
+        saved = read_json(path)
+        for name, fields in (("metrics.csv", METRIC_FIELDS), ("neuromod.csv", NEUROMOD_FIELDS)):
+            _keep_rows(run, name, fields, len(saved["results"]))
+        before = saved.get("elapsed", RunClock.UNKNOWN)  # older progress files lack it
+        return list(saved["results"]), int(saved["step"]), before
+    for name in ("metrics.csv", "neuromod.csv"):
+        (run / name).unlink(missing_ok=True)
+    return [], 0, None
+
+
+def _finish_task(
+    run: RunDir, model: DQN, cb: TaskCallback, spec: TaskSpec, index: int, seeds: list[int]
+) -> dict[str, Any]:
+    """After task ``index``'s training: keep its model (``dqn.keep``), save it, evaluate it on
+    the evaluation seeds ("initial"); returns its entry of the progress file."""
+    last = evaluate_model(model, spec, seeds) if cb.keep_best else None
+    kept = cb.keep(model)
+    if kept is not None:
+        kept["last_network_returns"] = last
+    save_sb3(model, _model_path(run, index))
+    initial = evaluate_model(model, spec, seeds)
+    return {
+        **({"validation": kept} if kept is not None else {}),
+        "env_id": spec.env_id,
+        "episodes": spec.episodes,
+        "max_steps": spec.max_steps,
+        "train_steps": cb.task_steps,
+        "end_step": cb.step,
+        "eval_returns_initial": initial,
+        "us_per_step": 1e6 * float(np.median(cb.per_step)) if cb.per_step else math.nan,
+        "returns_after": [float(np.mean(initial))],
+    }
+
+
+def _returns_after(
+    run: RunDir, specs: list[TaskSpec], results: list[dict[str, Any]], seeds: list[int]
+) -> None:
+    """Acc_{j,i} of Eq. 1.4: every earlier task's model, reloaded, evaluated again (``specs``:
+    the tasks before the one just finished)."""
+    for j, spec in enumerate(specs):
+        old = _load_model(run, j)
+        results[j]["returns_after"].append(float(np.mean(evaluate_model(old, spec, seeds))))
+
+
 def train_sb3_tasks(
     cfg: BiarmConfig,
     variant: Variant,
@@ -345,19 +397,7 @@ def train_sb3_tasks(
     specs, d_max = resolve_tasks(cfg)
     started = (Path(out) / "checkpoints" / PROGRESS_FILE).is_file()
     run = open_run(cfg, variant, seed, out, resume, started)
-    progress_path = run.checkpoints / PROGRESS_FILE
-    results: list[dict[str, Any]] = []
-    step = 0
-    before = None  # the time of earlier sessions, for a resumed run
-    if resume and progress_path.is_file():
-        saved = read_json(progress_path)
-        results, step = list(saved["results"]), int(saved["step"])
-        before = saved.get("elapsed", RunClock.UNKNOWN)  # older progress files lack it
-        for name, fields in (("metrics.csv", METRIC_FIELDS), ("neuromod.csv", NEUROMOD_FIELDS)):
-            _keep_rows(run, name, fields, len(results))
-    else:
-        for name in ("metrics.csv", "neuromod.csv"):
-            (run / name).unlink(missing_ok=True)
+    results, step, before = _progress(run, resume)
     seeds = eval_seeds(cfg.eval.seed, cfg.eval.episodes)
     hint = resume_hint(run.path)
     elapsed = RunClock(before)
@@ -376,39 +416,38 @@ def train_sb3_tasks(
                     "re-runs from its start",
                     hint,
                 )
-            last = evaluate_model(model, spec, seeds) if cb.keep_best else None
-            kept = cb.keep(model)
-            if kept is not None:
-                kept["last_network_returns"] = last
-            save_sb3(model, _model_path(run, i))
+            results.append(_finish_task(run, model, cb, spec, i, seeds))
             step = cb.step
-            initial = evaluate_model(model, spec, seeds)
-            results.append(
-                {
-                    **({"validation": kept} if kept is not None else {}),
-                    "env_id": spec.env_id,
-                    "episodes": spec.episodes,
-                    "max_steps": spec.max_steps,
-                    "train_steps": cb.task_steps,
-                    "end_step": step,
-                    "eval_returns_initial": initial,
-                    "us_per_step": 1e6 * float(np.median(cb.per_step)) if cb.per_step else math.nan,
-                    "returns_after": [float(np.mean(initial))],
-                }
-            )
-            if i < len(specs) - 1:  # Acc_{j,i} of Eq. 1.4: the earlier models, reloaded
-                for j in range(i):
-                    old = _load_model(run, j)
-                    mean = float(np.mean(evaluate_model(old, specs[j], seeds)))
-                    results[j]["returns_after"].append(mean)
-            write_json(progress_path, {"results": results, "step": step, "elapsed": elapsed()})
+            if i < len(specs) - 1:
+                _returns_after(run, specs[:i], results, seeds)
+            progress = {"results": results, "step": step, "elapsed": elapsed()}
+            write_json(run.checkpoints / PROGRESS_FILE, progress)
             if stop is not None and i + 1 < len(specs):
                 stop.check(f"task {i} ({spec.env_id})", hint)
-    tasks = []
-    for i, (spec, res) in enumerate(zip(specs, results, strict=True)):
-        tasks.append(task_record(res, evaluate_model(_load_model(run, i), spec, seeds)))
-    summary = {
-        "variant": variant.name,
+    tasks = [
+        task_record(res, evaluate_model(_load_model(run, i), spec, seeds))
+        for i, (spec, res) in enumerate(zip(specs, results, strict=True))
+    ]
+    # the time is summed over resumed sessions; an interrupted task's time is not counted
+    summary = _summary(cfg, specs, variant.name, seed, d_max, seeds, tasks, elapsed())
+    run.write_summary(summary)
+    return summary
+
+
+def _summary(
+    cfg: BiarmConfig,
+    specs: list[TaskSpec],
+    variant: str,
+    seed: int,
+    d_max: int,
+    seeds: list[int],
+    tasks: list[dict[str, Any]],
+    elapsed: dict[str, Any],
+) -> dict[str, Any]:
+    """``summary.json``, with the keys of :func:`evodevo.neuromod.trainer.train`'s (no modules,
+    no adapters) and SB3's version."""
+    return {
+        "variant": variant,
         "seed": seed,
         "module_learning": None,
         "adapter_dim": None,
@@ -416,7 +455,7 @@ def train_sb3_tasks(
         "eval_seeds": seeds,
         "tasks": tasks,
         "final_states": None,
-        **elapsed(),  # summed over resumed sessions; an interrupted task's time is not counted
+        **elapsed,
         "sb3_version": stable_baselines3.__version__,
         **(
             {"sb3_double_q": False}
@@ -424,5 +463,3 @@ def train_sb3_tasks(
             else {}
         ),
     }
-    run.write_summary(summary)
-    return summary
