@@ -114,6 +114,103 @@ class EpisodeResults:
         return int(self.steps.sum())
 
 
+@dataclass
+class _Sensors:
+    """The sensor vector of an observation: ``info["proprio"]``, or for a vector observation
+    (``space`` given) the observation itself, its Box bounds mapped onto ``vrange``."""
+
+    n_proprio: int
+    space: gym.spaces.Box | None
+    vrange: tuple[float, float]
+
+    def __call__(self, o: Any, info: dict[str, Any]) -> np.ndarray:
+        if self.space is None:
+            return proprio_of(info, self.n_proprio)
+        v = scale_observation(o, self.space, self.vrange)
+        if v.shape[0] != self.n_proprio:
+            raise EvodevoError(
+                f"the observation has {v.shape[0]} values; the controller expects "
+                f"{self.n_proprio} (set sensors.n_visual: 0 and sensors.n_proprio: {v.shape[0]})"
+            )
+        return v
+
+
+@dataclass
+class _Lockstep:
+    """B episodes stepped together: the last observations and sensors, and the outcomes."""
+
+    obs: np.ndarray
+    prop: np.ndarray
+    reward: np.ndarray
+    success: np.ndarray
+    steps: np.ndarray
+    active: np.ndarray
+    distance: np.ndarray
+
+    @classmethod
+    def reset(
+        cls, envs: Sequence[gym.Env[Any, Any]], episodes: Sequence[Episode], sensors: _Sensors
+    ) -> _Lockstep:
+        """Reset ``envs[b]`` with episode b's seed, in slot order."""
+        obs, prop = [], []
+        for b, ep in enumerate(episodes):
+            o, info = envs[b].reset(seed=int(ep.seed))
+            obs.append(o)
+            prop.append(sensors(o, info))
+        n = len(episodes)
+        return cls(
+            np.stack(obs),
+            np.stack(prop),
+            reward=np.zeros(n),
+            success=np.zeros(n, dtype=bool),
+            steps=np.zeros(n, dtype=int),
+            active=np.ones(n, dtype=bool),
+            distance=np.full(n, np.nan),
+        )
+
+
+@dataclass
+class _Frontend:
+    """The visual front-end in one :func:`run_episodes` call."""
+
+    encoder: Any
+    feeds: bool
+    """Its features reach the policy."""
+    runs: bool
+    """It runs: its features are read, or its target is (``distance_to: target``)."""
+    to_target: bool
+    state: Any
+    """Its per-episode state (e.g. the blob localiser's first frame), or None."""
+
+    @classmethod
+    def start(cls, encoder: Any, policy: Any, vector: bool, n_b: int, to_target: bool) -> _Frontend:
+        feeds = policy.uses_encoder and encoder is not None and not vector
+        if to_target and not hasattr(encoder, "seen_target"):
+            raise EvodevoError(
+                "evaluation.distance_to=target needs a front-end that localises a target "
+                f"(sensors.encoder: blob); this run's front-end is {type(encoder).__name__}"
+            )
+        runs = (feeds or to_target) and encoder is not None and not vector
+        state = encoder.reset(n_b) if runs and hasattr(encoder, "reset") else None
+        return cls(encoder, feeds, runs, to_target, state)
+
+    def features(self, policy: Any, batch: _Lockstep, idx: np.ndarray) -> Any:
+        """What the policy reads besides the sensors for the active slots ``idx``."""
+        feats = None
+        if self.runs:
+            feats = encode(self.encoder, batch.obs[idx], batch.prop[idx], self.state, idx)
+        if not self.feeds:
+            feats = None
+        if getattr(policy, "uses_image", False):  # e.g. an SB3 CNN policy: the raw observations
+            feats = batch.obs[idx]
+        return feats
+
+    def distance(self, env: gym.Env[Any, Any], slot: int, at: str) -> float:
+        """Gripper-to-object distance of the episode in ``slot``, just ended (training shaping)."""
+        target = self.encoder.seen_target(self.state, slot) if self.to_target else None
+        return grasp_distance(env, at, target)
+
+
 def run_episodes(
     envs: Sequence[gym.Env[Any, Any]],
     encoder: Any,
@@ -150,85 +247,80 @@ def run_episodes(
     space = getattr(envs[0], "observation_space", None)  # proxies (recording) may lack it
     vector = space is not None and is_vector_observation(space)
     vrange = vector_range if vector_range is not None else policy_vector_range(policy)
-
-    def sensors(o: Any, info: dict[str, Any]) -> np.ndarray:
-        if not vector:
-            return proprio_of(info, n_proprio)
-        v = scale_observation(o, space, vrange)  # type: ignore[arg-type]
-        if v.shape[0] != n_proprio:
-            raise EvodevoError(
-                f"the observation has {v.shape[0]} values; the controller expects {n_proprio} "
-                f"(set sensors.n_visual: 0 and sensors.n_proprio: {v.shape[0]})"
-            )
-        return v
-
+    sensors = _Sensors(n_proprio, cast(gym.spaces.Box, space) if vector else None, vrange)
     observe = getattr(policy, "observe_reward", None)
-    obs, prop = [], []
-    for b, ep in enumerate(episodes):
-        o, info = envs[b].reset(seed=int(ep.seed))
-        obs.append(o)
-        prop.append(sensors(o, info))
-    obs_arr, prop_arr = np.stack(obs), np.stack(prop)
+    batch = _Lockstep.reset(envs, episodes, sensors)
     rngs = [np.random.default_rng(ep.noise_seed) for ep in episodes]
     noisy = np.array([ep.noisy for ep in episodes])
     state = policy.reset_state(list(genomes))
-    use_encoder = policy.uses_encoder and encoder is not None and not vector
     to_target = measure_distance and distance_to == "target"
-    if to_target and not hasattr(encoder, "seen_target"):
-        raise EvodevoError(
-            "evaluation.distance_to=target needs a front-end that localises a target "
-            f"(sensors.encoder: blob); this run's front-end is {type(encoder).__name__}"
-        )
-    run_frontend = (use_encoder or to_target) and encoder is not None and not vector
-    fstate = encoder.reset(n_b) if run_frontend and hasattr(encoder, "reset") else None
-    distance = np.full(n_b, np.nan)
-    reward = np.zeros(n_b)
-    success = np.zeros(n_b, dtype=bool)
-    steps = np.zeros(n_b, dtype=int)
-    active = np.ones(n_b, dtype=bool)
+    frontend = _Frontend.start(encoder, policy, vector, n_b, to_target)
     trace: dict[str, list[Any]] = {"x": [], "m": [], "actions": [], "frames": []}
     if record:
-        trace["frames"].append(obs_arr.copy())
-    while active.any():
-        idx = np.flatnonzero(active)
-        feats = encode(encoder, obs_arr[idx], prop_arr[idx], fstate, idx) if run_frontend else None
-        if not use_encoder:
-            feats = None
-        if getattr(policy, "uses_image", False):  # e.g. an SB3 CNN policy: the raw observations
-            feats = obs_arr[idx]
-        actions = policy.step(state, idx, feats, prop_arr[idx], [rngs[i] for i in idx], noisy[idx])
+        trace["frames"].append(batch.obs.copy())
+    while batch.active.any():
+        idx = np.flatnonzero(batch.active)
+        feats = frontend.features(policy, batch, idx)
+        actions = policy.step(
+            state, idx, feats, batch.prop[idx], [rngs[i] for i in idx], noisy[idx]
+        )
         if not np.all(np.isfinite(actions)):
             raise EvodevoError("the controller produced non-finite actions")
-        step_r = np.zeros(len(idx))
-        for j, slot in enumerate(idx.tolist()):
-            env = envs[slot]
-            box = cast(gym.spaces.Box, env.action_space)
-            o, r, term, trunc, info = env.step(scale_actions(actions[j], box))
-            obs_arr[slot] = o
-            prop_arr[slot] = sensors(o, info)
-            step_r[j] = float(r)
-            reward[slot] += float(r)
-            steps[slot] += 1
-            if term or trunc:
-                active[slot] = False
-                success[slot] = bool(info.get("is_success", float(r) > 0))
-                if measure_distance:
-                    target = encoder.seen_target(fstate, slot) if to_target else None
-                    distance[slot] = grasp_distance(env, distance_at, target)
+        at = distance_at if measure_distance else None
+        step_r = _step_envs(envs, batch, idx, actions, sensors, frontend, at)
         if observe is not None:
             observe(state, idx, step_r)
         if record:
-            for key in ("x", "m"):
-                if hasattr(state, key):
-                    trace[key].append(np.array(getattr(state, key), copy=True))
-            trace["actions"].append(np.array(actions, copy=True))
-            trace["frames"].append(obs_arr.copy())
-    out: dict[str, Any] = {"reward": reward, "success": success, "steps": steps}
+            _record_step(trace, state, actions, batch.obs)
+    out: dict[str, Any] = {"reward": batch.reward, "success": batch.success, "steps": batch.steps}
     if measure_distance:
-        out["distance"] = distance
+        out["distance"] = batch.distance
     if record:
         out.update(trace)
     return out
+
+
+def _step_envs(
+    envs: Sequence[gym.Env[Any, Any]],
+    batch: _Lockstep,
+    idx: np.ndarray,
+    actions: np.ndarray,
+    sensors: _Sensors,
+    frontend: _Frontend,
+    distance_at: str | None,
+) -> np.ndarray:
+    """Step the active slots ``idx`` with their actions, in slot order; returns their rewards.
+
+    An episode that ends is marked inactive, with its success and, unless ``distance_at`` is
+    None, its gripper-to-object distance.
+    """
+    step_r = np.zeros(len(idx))
+    for j, slot in enumerate(idx.tolist()):
+        env = envs[slot]
+        box = cast(gym.spaces.Box, env.action_space)
+        o, r, term, trunc, info = env.step(scale_actions(actions[j], box))
+        batch.obs[slot] = o
+        batch.prop[slot] = sensors(o, info)
+        step_r[j] = float(r)
+        batch.reward[slot] += float(r)
+        batch.steps[slot] += 1
+        if term or trunc:
+            batch.active[slot] = False
+            batch.success[slot] = bool(info.get("is_success", float(r) > 0))
+            if distance_at is not None:
+                batch.distance[slot] = frontend.distance(env, slot, distance_at)
+    return step_r
+
+
+def _record_step(
+    trace: dict[str, list[Any]], state: Any, actions: np.ndarray, obs: np.ndarray
+) -> None:
+    """Append one step to the figures' trace: expression, modulators, actions, frames."""
+    for key in ("x", "m"):
+        if hasattr(state, key):
+            trace[key].append(np.array(getattr(state, key), copy=True))
+    trace["actions"].append(np.array(actions, copy=True))
+    trace["frames"].append(obs.copy())
 
 
 @dataclass
