@@ -59,12 +59,19 @@ _KUKA_TENSORBOARD_HELP = (
 )
 
 
+#: The defaults the help states, read from the config (written once, in kuka_config).
+_DEFAULT = KukaBaselineConfig()
+
+
 @app.command()
 def kuka(
     method: str = typer.Option(..., "--method", help=_METHOD_HELP),
     out: Path = typer.Option(..., "--out", help="Run directory (created)."),
     budget_steps: int | None = typer.Option(
-        None, "--budget-steps", help="Training env steps [PPO/TD3 13500; NEAT 15 generations]."
+        None,
+        "--budget-steps",
+        help=f"Training env steps [PPO/TD3 {_DEFAULT.budget.default_env_steps}; NEAT "
+        f"{_DEFAULT.neat.generations} generations].",
     ),
     budget_minutes: float | None = typer.Option(
         None, "--budget-minutes", help="Training wall-clock minutes (with or instead of steps)."
@@ -73,7 +80,7 @@ def kuka(
         None, "--budget-from", help="Use the env steps of this run (e.g. a `grn evolve` run)."
     ),
     budget_scale: float = typer.Option(1.0, help="Multiply the --budget-from steps (e.g. 5)."),
-    seed: int | None = typer.Option(None, "--seed", help="Run seed [0]."),
+    seed: int | None = typer.Option(None, "--seed", help=f"Run seed [{_DEFAULT.seed}]."),
     config: Path | None = typer.Option(
         None, "--config", help="YAML config (configs/baselines_kuka.yaml)."
     ),

@@ -33,7 +33,7 @@ from evodevo.cli.common import (
     parse_list,
     renamed,
 )
-from evodevo.config import load_config, merge, parse_sets, to_dict
+from evodevo.config import from_dict, load_config, merge, parse_sets, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.grn.ablations import ablations_stem, run_ablations
 from evodevo.grn.config import GrnConfig, vision_preset
@@ -185,17 +185,28 @@ _EVOLVE_TENSORBOARD_HELP = (
 )
 
 
+#: What ``grn evolve`` runs without options (the vision preset): its help states these values,
+#: read from the config, not written again here.
+_DEFAULT = from_dict(GrnConfig, vision_preset())
+
+
 @app.command()
 def evolve(
     out: Path = typer.Option(..., "--out", help="Run directory (created)."),
-    population: int | None = typer.Option(None, help="Genomes per generation [12]."),
-    generations: int | None = typer.Option(None, help="Maximum generations [15]."),
-    episodes: int | None = typer.Option(None, help="Episodes per evaluation [10]."),
+    population: int | None = typer.Option(
+        None, help=f"Genomes per generation [{_DEFAULT.evolution.population}]."
+    ),
+    generations: int | None = typer.Option(
+        None, help=f"Maximum generations [{_DEFAULT.evolution.generations}]."
+    ),
+    episodes: int | None = typer.Option(
+        None, help=f"Episodes per evaluation [{_DEFAULT.evaluation.episodes}]."
+    ),
     final_pick: int | None = typer.Option(None, help=_FINAL_PICK_HELP),
     keep: str | None = typer.Option(None, help=_KEEP_HELP),
     optimizer: str | None = typer.Option(None, help=_OPTIMIZER_HELP),
     workers: int = typer.Option(1, help="Worker processes (each owns its environments)."),
-    seed: int | None = typer.Option(None, help="Run seed [0]."),
+    seed: int | None = typer.Option(None, help=f"Run seed [{_DEFAULT.seed}]."),
     config: Path | None = typer.Option(None, "--config", help=_CONFIG_HELP),
     set_: list[str] | None = typer.Option(None, "--set", help=SET_HELP),
     preset: str = typer.Option("vision", help=_PRESET_HELP),
@@ -379,7 +390,7 @@ def baselines(
 def ablate(
     run_dir: Path = typer.Argument(..., help="Run directory of `evodevo grn evolve`."),
     test_episodes: int | None = typer.Option(
-        None, help="Test episodes per ablation [40 = evaluation.test_episodes of the config]."
+        None, help="Test episodes per ablation [evaluation.test_episodes of the run's config]."
     ),
     objects: str = typer.Option("test", help="test or train objects."),
     test_seed: int | None = typer.Option(None, help=TEST_SEED_HELP),
