@@ -89,6 +89,28 @@ g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
   done
 }
 
+g4() {  # G1's GRN runs tested with noise on the visual features (SPEC §2.5), locked range
+  local src; src=$(code_at 3b679d4)
+  for seed in 0 1 2 3 4 5 6 7; do
+    local run="$out/regulation/grn_s$seed"
+    done_run "$run" || grn_arm "$src" grn "$seed" --keep validated
+    if [ ! -f "$run/test_locked_noisy.json" ]; then
+      PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
+        --objects test --noise 0.03 --test-seed 1000000 --no-baselines --workers 2 --json \
+        > "$run/test_locked_noisy.json.part"
+      mv "$run/test_locked_noisy.json.part" "$run/test_locked_noisy.json"
+    fi
+  done
+}
+
+g5() {  # the neuromodulated GRN of SPEC §5 beside G1's plain one
+  local src; src=$(code_at 3b679d4)
+  for seed in 0 1 2 3 4 5; do
+    grn_arm "$src" grn "$seed" --keep validated
+    grn_arm "$src" neuromod "$seed" --keep validated --controller neuromodulated
+  done
+}
+
 e4() {  # learned module networks beside E1's fixed ones
   local src; src=$(code_at 7dac07f)
   for s in 0-1 2-3 4-5 6-7; do
@@ -158,7 +180,7 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
   done
 }
 
-for e in "${@:-E1 E3A G1 G3 E2 E4 G2 E5 E3B}"; do
+for e in "${@:-E1 E3A G1 G4 G3 G5 E2 E4 G2 E5 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
