@@ -25,9 +25,33 @@ import abc
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import torch
 
+from evodevo.config import from_dict
 from evodevo.errors import EvodevoError
+from evodevo.grn.controller import make_policy
+from evodevo.grn.env_interface import (
+    action_dims,
+    is_vector_observation,
+    policy_vector_range,
+    proprio_of,
+    scale_actions,
+    scale_observation,
+)
+from evodevo.grn.env_interface import make_env as make_grn_env
+from evodevo.grn.evaluation import load_run
+from evodevo.grn.evaluator import Episode
+from evodevo.grn.frontends import encode
+from evodevo.neuromod.config import BiarmConfig
+from evodevo.neuromod.padding import check_fits
+from evodevo.neuromod.tasks import make_env as make_task_env
+from evodevo.neuromod.tasks import resolve_tasks
+from evodevo.neuromod.trainer import load_agent
+from evodevo.neuromod.variants import get_variant
+from evodevo.runs import RunDir, read_json
+from evodevo.seeding import derive
 
 __all__ = ["Policy", "GrnPolicy", "BiarmPolicy", "load"]
 
@@ -69,16 +93,13 @@ class GrnPolicy(Policy):
     """
 
     def __init__(self, loaded: Any) -> None:
-        from evodevo.grn.controller import make_policy
-        from evodevo.grn.evaluator import action_dims, is_vector_observation, make_env
-
         self.run = loaded.run
         self.config = loaded.config
         self.kind = str(loaded.kind)
         self.genome = loaded.genome
         self.encoder = loaded.encoder
         self.env_id = str(self.config.env.id)
-        env = make_env(self.env_id, self.config.env.kwargs)
+        env = make_grn_env(self.env_id, self.config.env.kwargs)
         try:
             self.observation_space: Any = env.observation_space
             self.action_space: Any = env.action_space
@@ -92,14 +113,11 @@ class GrnPolicy(Policy):
 
     def make_env(self, test_objects: bool = False, **kwargs: Any) -> Any:
         """The run's environment; ``test_objects=True`` for the Kuka env's held-out objects."""
-        from evodevo.grn.evaluator import make_env
-
-        return make_env(self.env_id, self.config.env.kwargs, test_objects=test_objects, **kwargs)
+        return make_grn_env(
+            self.env_id, self.config.env.kwargs, test_objects=test_objects, **kwargs
+        )
 
     def reset(self, seed: int | None = None) -> None:
-        from evodevo.grn.evaluator import Episode
-        from evodevo.seeding import derive
-
         if seed is None:
             seed = derive(self.config.seed, 23, self._episodes)
         self._episodes += 1
@@ -114,8 +132,6 @@ class GrnPolicy(Policy):
         self._steps = 0
 
     def _sensors(self, obs: Any, info: dict[str, Any] | None) -> np.ndarray:
-        from evodevo.grn.env_interface import policy_vector_range, proprio_of, scale_observation
-
         n = int(self.config.sensors.n_proprio)
         if not self.vector:
             return proprio_of(info or {}, n)
@@ -127,9 +143,6 @@ class GrnPolicy(Policy):
     def predict(
         self, obs: Any, info: dict[str, Any] | None = None, reward: float | None = None
     ) -> Any:
-        from evodevo.grn.env_interface import scale_actions
-        from evodevo.grn.frontends import encode
-
         if self._state is None:
             self.reset()
         observe = getattr(self.controller, "observe_reward", None)
@@ -168,8 +181,6 @@ class BiarmPolicy(Policy):
     """
 
     def __init__(self, agent: Any, specs: list[Any], task: int) -> None:
-        import torch
-
         if not 0 <= task < len(specs):
             raise EvodevoError(
                 f"task {task} is not a column of this run; it has {len(specs)} "
@@ -186,12 +197,8 @@ class BiarmPolicy(Policy):
 
     def make_env(self, **kwargs: Any) -> Any:
         """The column's task environment with the run's step limit."""
-        import gymnasium as gym
-
-        from evodevo.neuromod.tasks import make_env
-
         if not kwargs:
-            return make_env(self.env_id, self.spec.max_steps)
+            return make_task_env(self.env_id, self.spec.max_steps)
         steps = {} if self.spec.max_steps is None else {"max_episode_steps": self.spec.max_steps}
         return gym.make(self.env_id, **steps, **kwargs)
 
@@ -201,8 +208,6 @@ class BiarmPolicy(Policy):
     def predict(
         self, obs: Any, info: dict[str, Any] | None = None, reward: float | None = None
     ) -> int:
-        from evodevo.neuromod.padding import check_fits
-
         flat = np.asarray(obs, dtype=np.float32).reshape(-1)
         check_fits(flat.size, self.agent.obs_dim, self.env_id)
         row = self._x.numpy()[0]
@@ -232,27 +237,16 @@ def load(run_dir: str | Path, task: int | str | None = None) -> Policy:
     Raises:
         EvodevoError: the folder holds no run, a run of another kind, or no trained policy.
     """
-    from evodevo.runs import RunDir
-
     run = RunDir(run_dir, create=False)
     kind = run.read_config().get("kind")
     if kind == "biarm":
         return _load_biarm(run.path, task)
     if task is not None:
         raise EvodevoError(f"task= applies to BIARM runs; {str(run.path)!r} is a {kind!r} run")
-    from evodevo.grn.evaluation import load_run
-
     return GrnPolicy(load_run(run.path))
 
 
 def _load_biarm(path: Path, task: int | str | None) -> BiarmPolicy:
-    from evodevo.config import from_dict
-    from evodevo.neuromod.config import BiarmConfig
-    from evodevo.neuromod.tasks import resolve_tasks
-    from evodevo.neuromod.trainer import load_agent
-    from evodevo.neuromod.variants import get_variant
-    from evodevo.runs import read_json
-
     saved = dict(read_json(path / "config.json")["config"])
     variant = get_variant(str(saved.pop("variant")))
     saved.pop("seed", None)
