@@ -37,6 +37,8 @@ def load(run_dir: str | Path, task: int | str | None = None) -> Policy:
     GRN, neuromodulated GRN and Kuka baseline runs; for a BIARM run, ``task`` picks the column
     (index or Gymnasium id). See :mod:`evodevo.policy`.
     """
+    # imported here to keep `import evodevo` light: evodevo.policy brings torch, gymnasium
+    # and both methods' modules
     from evodevo.policy import load as _load
 
     return _load(run_dir, task)
