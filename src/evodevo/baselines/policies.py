@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError
+from evodevo.grn.frontends import BlobLocaliser
 from evodevo.safe_io import legacy_error
 
 __all__ = ["Sb3Model", "Sb3Policy", "NeatNet", "NeatPolicy", "SB3_ALGOS", "load_sb3"]
@@ -44,6 +45,7 @@ def load_sb3(algo: str, path: str | Path) -> Any:
     the BIARM baseline), for acting: ``policy.predict(obs, deterministic=True)`` is what the
     model's own ``predict`` returns. A clear :class:`~evodevo.errors.CheckpointError` on a
     mismatch."""
+    # optional dependency: stable_baselines3
     from evodevo.baselines.sb3_files import load_sb3_policy
 
     if algo not in (*SB3_ALGOS, "dqn"):
@@ -161,20 +163,20 @@ class NeatNet:
     @classmethod
     def from_genome(cls, genome: Any, config_path: str | Path) -> NeatNet:
         """Wrap a live neat genome."""
-        from evodevo.baselines.neat_files import genome_to_dict
+        from evodevo.baselines.neat_files import genome_to_dict  # optional dependency: neat
 
         return cls(json.dumps(genome_to_dict(genome)), str(config_path))
 
     def neat_genome(self, config: Any) -> Any:
         """The neat-python genome, rebuilt for ``config`` (the ``neat.Config`` of the file)."""
-        from evodevo.baselines.neat_files import genome_from_dict
+        from evodevo.baselines.neat_files import genome_from_dict  # optional dependency: neat
 
         return genome_from_dict(json.loads(self.genome), config)
 
     @classmethod
     def load(cls, path: str | Path, config_path: str | Path) -> NeatNet:
         """Load ``best_genome.json`` of a NEAT run (written by :meth:`save`)."""
-        from evodevo.baselines.neat_files import read_genome
+        from evodevo.baselines.neat_files import read_genome  # optional dependency: neat
 
         p = Path(path)
         if not p.is_file() and p.with_suffix(".pkl").is_file():
@@ -183,14 +185,14 @@ class NeatNet:
 
     def save(self, path: str | Path) -> None:
         """Atomically write the genome as JSON, with the text of its neat config file."""
-        from evodevo.baselines.neat_files import save_genome
+        from evodevo.baselines.neat_files import save_genome  # optional dependency: neat
 
         save_genome(path, json.loads(self.genome), self.config_path)
 
 
 def neat_config(path: str | Path) -> Any:
     """The neat-python ``Config`` of a neat config file."""
-    import neat
+    import neat  # optional dependency: neat
 
     p = Path(path)
     if not p.is_file():
@@ -215,7 +217,7 @@ class NeatPolicy:
         self._configs: dict[str, Any] = {}
 
     def reset_state(self, genomes: Sequence[NeatNet]) -> list[Any]:
-        import neat
+        import neat  # optional dependency: neat
 
         nets = []
         for g in genomes:
@@ -250,8 +252,6 @@ _CALIBRATIONS: dict[str, Any] = {}
 
 def blob_frontend(env_id: str, env_kwargs: dict[str, Any]) -> Any:
     """The blob front-end calibrated for ``env_id`` (once per process; SPEC §2.2)."""
-    from evodevo.grn.frontends import BlobLocaliser
-
     key = f"{env_id}|{sorted(env_kwargs.items())!r}"
     if key not in _CALIBRATIONS:
         _CALIBRATIONS[key] = BlobLocaliser.calibrate(env_id, env_kwargs)
