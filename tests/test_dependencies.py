@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import ast
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -73,3 +75,12 @@ def test_no_module_of_the_package_is_named_in_a_string():
         if _STRING_IMPORT.search(line) and not line.lstrip().startswith(("*", "#", ">>>"))
     ]
     assert hits == []
+
+
+def test_a_fresh_process_loads_a_baseline_run_through_evodevo_load():
+    """Nothing but ``import evodevo``: the loader of baseline runs is registered by the import
+    of evodevo.baselines that evodevo.policy makes (no module looked up by name)."""
+    pytest.importorskip("stable_baselines3")
+    run = SRC.parents[1] / "docs" / "results" / "grn_vision" / "ppo_blob_s0"
+    code = f"import evodevo; p = evodevo.load({str(run)!r}); assert p.kind == 'ppo', p.kind"
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

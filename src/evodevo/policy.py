@@ -29,6 +29,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+import evodevo.baselines  # noqa: F401  (registers the loader and controllers of Kuka baseline runs)
 from evodevo.config import from_dict
 from evodevo.errors import EvodevoError
 from evodevo.grn.controller import make_policy
