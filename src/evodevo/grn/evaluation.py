@@ -294,7 +294,10 @@ KUKA_ID = "evodevo/KukaDiverseObject-v0"
 def default_baselines(config: GrnConfig) -> list[str]:
     """The reference policies run by default: every one of BASELINES, but the scripted
     image-only pipeline only on the Kuka env with its height hack (it reads that camera), and
-    its remembering twin only when that camera goes dark (``dark_after``; else they are one)."""
+    its remembering twin only when that camera goes dark (``dark_after``; else they are one).
+    The scripted two are registered by :mod:`evodevo.baselines` when it is imported (the CLI,
+    ``reproduce`` and :func:`evodevo.load` import it; a script that calls :func:`evaluate_run`
+    itself imports it to have them)."""
     kuka = config.env.id == KUKA_ID and config.env.kwargs.get("height_hack", True)
     dark = kuka and config.env.kwargs.get("dark_after") is not None
     needs = {"scripted": kuka, "scripted_memory": dark}
