@@ -18,9 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from evodevo.baselines.kuka_config import KukaBaselineConfig
+from evodevo.baselines.policies import NeatNet, Sb3Model, load_sb3
 from evodevo.callbacks import Callback, CallbackList
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import ConfigError, EvodevoError
+from evodevo.grn.evaluation import LoadedRun
+from evodevo.grn.frontends import load_frontend
 from evodevo.runs import RunDir, machine_info
 
 __all__ = ["RUN_KIND", "run_baseline", "load_run", "read_baseline_config"]
@@ -94,11 +97,11 @@ def run_baseline(
             )
         run.write_config(cfg_dict, kind=RUN_KIND)
     if cfg.method in ("ppo", "td3", "recurrent_ppo"):  # RecurrentPPO: sb3-contrib
-        from evodevo.baselines.sb3_kuka import train_sb3
+        from evodevo.baselines.sb3_kuka import train_sb3  # optional dependency: stable_baselines3
 
         return train_sb3(cfg, run, resume=resume, quiet=quiet, callback=CallbackList(callbacks))
     if cfg.method == "neat":
-        from evodevo.baselines.neat_kuka import train_neat
+        from evodevo.baselines.neat_kuka import train_neat  # optional dependency: neat
 
         return train_neat(
             cfg,
@@ -132,21 +135,17 @@ def run_baseline(
 
 def load_run(run: RunDir, saved: dict[str, Any]) -> Any:
     """A baseline run as :class:`evodevo.grn.evaluation.LoadedRun` (policy in place of a genome)."""
-    from evodevo.baselines.policies import NeatNet, Sb3Model, load_sb3
-    from evodevo.grn.evaluation import LoadedRun
-    from evodevo.grn.frontends import load_frontend
-
     cfg = read_baseline_config(run)
     genome: Any = None
     encoder = None
     if cfg.method in ("ppo", "td3", "recurrent_ppo"):
-        from evodevo.baselines.sb3_kuka import MODEL_FILE
+        from evodevo.baselines.sb3_kuka import MODEL_FILE  # optional dependency: stable_baselines3
 
         ref = Sb3Model(cfg.method, str((run / MODEL_FILE).resolve()))
         load_sb3(ref.algo, ref.path)  # fail here, with the path, not inside a worker
         genome = ref
     elif cfg.method == "neat":
-        from evodevo.baselines.neat_kuka import GENOME_FILE, NEAT_INI
+        from evodevo.baselines.neat_kuka import GENOME_FILE, NEAT_INI  # optional dependency: neat
 
         genome = NeatNet.load(run / GENOME_FILE, (run / NEAT_INI).resolve())
         encoder = load_frontend(cfg.evaluator_config(), run.path)

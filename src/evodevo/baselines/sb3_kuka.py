@@ -39,8 +39,10 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.vec_env import DummyVecEnv, VecTransposeImage
 
+from evodevo.baselines.feature_env import FeatureObservation
 from evodevo.baselines.kuka_cnn import KukaCnn
 from evodevo.baselines.kuka_config import CnnConfig, KukaBaselineConfig
+from evodevo.baselines.policies import blob_frontend
 from evodevo.baselines.recurrent_ppo import build_recurrent_ppo
 from evodevo.baselines.sb3_callbacks import (
     CANDIDATE_PREFIX,
@@ -69,7 +71,7 @@ from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import Evaluator, make_env
 from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
 from evodevo.return_rule import VALIDATED, ValidatedBest, candidate_every, summary_fields
-from evodevo.runs import RunDir, atomic_write_bytes, read_json, write_json
+from evodevo.runs import RunDir, atomic_write_bytes, machine_info, read_json, write_json
 from evodevo.safe_io import refuse_legacy
 from evodevo.seeding import derive
 
@@ -127,9 +129,6 @@ class Td3TwoRates(TD3):
 def _vec_env(cfg: KukaBaselineConfig) -> VecTransposeImage | DummyVecEnv:
     env = make_env(cfg.env.id, cfg.env.kwargs, test_objects=False)
     if uses_blob(cfg):  # the vision preset's features, not the image
-        from evodevo.baselines.feature_env import FeatureObservation
-        from evodevo.baselines.policies import blob_frontend
-
         wrapped = FeatureObservation(env, blob_frontend(cfg.env.id, dict(cfg.env.kwargs)))
         return DummyVecEnv([lambda: Monitor(wrapped)])
     return VecTransposeImage(DummyVecEnv([lambda: Monitor(env)]))
@@ -486,8 +485,6 @@ def summarise(
     stopped_by: str,
 ) -> dict[str, Any]:
     """The ``summary.json`` of a baseline run (shared by every method)."""
-    from evodevo.runs import machine_info
-
     t_s, t_steps = first_reach(rows, cfg.budget.target_success)
     return {
         "kind": "baseline_kuka",
