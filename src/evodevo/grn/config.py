@@ -13,6 +13,7 @@ Unknown keys and bad values raise :class:`~evodevo.errors.ConfigError` naming th
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -591,8 +592,6 @@ agree. Values chosen by measurement (docs/results/grn.md)."""
 
 def vision_preset() -> dict[str, Any]:
     """A copy of :data:`VISION_PRESET` (overrides of the thesis defaults)."""
-    import copy
-
     return copy.deepcopy(VISION_PRESET)
 
 

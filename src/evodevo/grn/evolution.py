@@ -36,6 +36,7 @@ from evodevo.callbacks import Callback, CallbackList
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.config import GrnConfig
+from evodevo.grn.controller import check_controller, make_controller
 from evodevo.grn.evaluator import Episode, Evaluator, genome_key
 from evodevo.grn.evolution_callbacks import (
     CHECKPOINT_FILE,
@@ -504,8 +505,6 @@ def evolve_run(
         backend: "local" (process pool) or "ray" (Ray actors); results are the same.
         address: Ray cluster address ("auto" or HOST:PORT); None starts a local Ray.
     """
-    from evodevo.grn.controller import check_controller, make_controller
-
     check_controller(config)
     run = RunDir(out)
     ckpt = run.path / "checkpoints" / CHECKPOINT_FILE

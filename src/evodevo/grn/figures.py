@@ -21,6 +21,9 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import EvodevoError
+from evodevo.grn.genome import load_arrays
+from evodevo.grn.neuromodulated import MODULATOR_TRACE_FILE
+from evodevo.grn.recording import TRACE_FILE
 from evodevo.runs import RunDir
 
 __all__ = ["plot_run", "plot_modulator_trace", "ROLLING_WINDOW"]
@@ -30,6 +33,8 @@ ROLLING_WINDOW = 10
 
 
 def _plt() -> Any:
+    # imported when a figure is drawn, so that choosing the Agg backend is no side effect of
+    # importing this module
     import matplotlib
 
     matplotlib.use("Agg")
@@ -80,8 +85,6 @@ def plot_history(run: RunDir, out: Path) -> list[Path]:
 
 def plot_heatmap(run: RunDir, out: Path) -> list[Path]:
     """W_r heatmap: blue = activation (w > 0), red = repression (w < 0)."""
-    from evodevo.grn.genome import load_arrays
-
     arrays, header = load_arrays(run / "best_genome.npz")
     if "W_r" not in arrays:
         return []
@@ -154,9 +157,6 @@ def plot_ablations(run: RunDir, out: Path, stem: str = "ablations") -> list[Path
 
 def plot_trace(run: RunDir, out: Path) -> list[Path]:
     """Expression of every gene over one test episode, and the actions."""
-    from evodevo.grn.genome import load_arrays
-    from evodevo.grn.recording import TRACE_FILE
-
     if not (run / TRACE_FILE).is_file():
         return []
     arrays, meta = load_arrays(run / TRACE_FILE, "grn_trace")
@@ -185,9 +185,6 @@ def plot_trace(run: RunDir, out: Path) -> list[Path]:
 
 def plot_modulator_trace(run: RunDir, out: Path) -> list[Path]:
     """Modulator states m_DA, m_5HT, m_NE, m_ACh, gene expression and actions of one episode."""
-    from evodevo.grn.genome import load_arrays
-    from evodevo.grn.neuromodulated import MODULATOR_TRACE_FILE
-
     if not (run / MODULATOR_TRACE_FILE).is_file():
         return []
     arrays, meta = load_arrays(run / MODULATOR_TRACE_FILE, "grn_modulator_trace")

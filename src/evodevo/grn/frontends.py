@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
 from evodevo.errors import CheckpointError, ConfigError, EvodevoError
 from evodevo.grn.config import FRONTEND_FEATURES, GrnConfig
@@ -117,7 +118,7 @@ class CameraModel:
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """(view, projection) as row-major 4×4 arrays (OpenGL convention, like PyBullet)."""
-        from evodevo.envs.bullet import pybullet as p
+        from evodevo.envs.bullet import pybullet as p  # optional dependency: pybullet
 
         view = (
             np.array(
@@ -213,8 +214,6 @@ class BlobLocaliser:
 
     def blobs(self, image: np.ndarray) -> list[tuple[float, float, int]]:
         """Blobs of one image: (row centroid, col centroid, area) of each connected region."""
-        from scipy import ndimage
-
         diff = np.abs(image.astype(np.int16) - self.background.astype(np.int16)).sum(-1)
         labels, n = ndimage.label(diff > DIFF_THRESHOLD)
         out = []

@@ -41,10 +41,20 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError, EvodevoError
+from evodevo.grn.ablations import ablation_row, ablations_markdown, ablations_stem, add_holm
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import PlainGrnController
 from evodevo.grn.dynamics import expression_step, motor_output
-from evodevo.grn.genome import GrnGenome, init_genome, load_arrays, save_arrays, stack_genomes
+from evodevo.grn.evaluation import load_run, test_episodes
+from evodevo.grn.evaluator import Evaluator
+from evodevo.grn.genome import (
+    GrnGenome,
+    check_frontend,
+    init_genome,
+    load_arrays,
+    save_arrays,
+    stack_genomes,
+)
 from evodevo.grn.modulation import (
     ACH,
     DA,
@@ -58,6 +68,8 @@ from evodevo.grn.modulation import (
     target_network,
 )
 from evodevo.grn.mutation import mutate_genome
+from evodevo.grn.recording import episode_meta, record_episode
+from evodevo.runs import atomic_write_text, write_json
 
 __all__ = [
     "NeuromodGrnGenome",
@@ -267,8 +279,6 @@ class NeuromodGrnController(PlainGrnController):
         genome.check(self.n_sensors, self.n_actions, self.sensors.n_visual, self.mod.hidden, where)
 
     def load_genome(self, path: str | Path) -> NeuromodGrnGenome:  # type: ignore[override]  # a kind's genome type is its own
-        from evodevo.grn.genome import check_frontend, load_arrays
-
         check_frontend(load_arrays(path, NeuromodGrnGenome.KIND)[1], self.sensors.encoder, path)
         g = NeuromodGrnGenome.load(path)
         self._check(g, str(path))
@@ -386,8 +396,6 @@ MODULATOR_ABLATIONS: dict[str, tuple[int, ...]] = {
 
 
 def _loaded_neuromod(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Any:
-    from evodevo.grn.evaluation import load_run
-
     loaded = load_run(path, overrides)
     if not isinstance(loaded.genome, NeuromodGrnGenome):
         raise EvodevoError(
@@ -411,11 +419,6 @@ def run_modulator_ablations(
     Newcombe 95 % interval, Fisher exact p; the layout of :mod:`evodevo.grn.ablations`);
     ``overrides`` change the test as in :func:`evodevo.grn.ablations.run_ablations`.
     """
-    from evodevo.grn.ablations import ablation_row, ablations_markdown, ablations_stem, add_holm
-    from evodevo.grn.evaluation import test_episodes
-    from evodevo.grn.evaluator import Evaluator
-    from evodevo.runs import atomic_write_text, write_json
-
     if objects not in ("test", "train"):
         raise EvodevoError(f"objects {objects!r} is not accepted; choose test or train")
     loaded = _loaded_neuromod(path, overrides)
@@ -462,8 +465,6 @@ def record_modulator_trace(path: str | Path, index: int = 0, objects: str = "tes
     The file holds the modulator states ``m`` (T, 4), the expression ``x`` (T, n) and the
     actions (T, A) after every step, for :func:`evodevo.grn.figures.plot_modulator_trace`.
     """
-    from evodevo.grn.recording import episode_meta, record_episode
-
     loaded = _loaded_neuromod(path)
     ep, res = record_episode(loaded, index, objects)
     out = loaded.run / MODULATOR_TRACE_FILE

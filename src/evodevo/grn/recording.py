@@ -17,6 +17,7 @@ from evodevo.grn.controller import make_controller
 from evodevo.grn.evaluation import LoadedRun, load_run, test_episodes
 from evodevo.grn.evaluator import Episode, action_dims, make_env, run_episodes
 from evodevo.grn.genome import save_arrays
+from evodevo.video import save_frames
 
 __all__ = ["record_episode", "episode_meta", "record_trace", "record_video", "TRACE_FILE"]
 
@@ -116,7 +117,6 @@ def record_video(path: str | Path, out: str | Path, index: int = 0, objects: str
         raise EvodevoError(f"environment {cfg.env.id!r} rendered no frames in rgb_array mode")
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    from evodevo.video import save_frames  # Pillow GIF: 400 ms per frame (imageio >= 2.28 read
-    # duration=0.4 as 0.4 ms); `evodevo grn video` films with captions through evodevo.video
-
+    # Pillow GIF: 400 ms per frame (imageio >= 2.28 read duration=0.4 as 0.4 ms); `evodevo grn
+    # video` films with captions through evodevo.video
     return save_frames([np.asarray(f, dtype=np.uint8) for f in frames], out, fps=2.5)
