@@ -12,8 +12,9 @@ committed run under docs/results still loads and reports the same numbers" means
   again on their saved seeds and must give the saved reward, success and step count.
 * **BIARM runs** (kind ``biarm``): each column loads through :func:`evodevo.load`.
 * **BIARM grids** (folders with ``runs/`` of BIARM runs and a ``report.md``): ``biarm report``
-  re-draws the tables into a copy of the folder (figures off), and every table (``.md`` and
-  ``.csv`` beside ``report.md``) must equal the committed one.
+  re-draws the tables into a copy of the folder (figures off), and every committed table
+  (``table_*.md`` and ``table_*.csv``) must equal the one drawn now (``report.md`` itself is
+  left out: it gains the sections of tables added since, e.g. the final-return verdicts).
 
 Nothing is written into ``docs/results``. Exit status 1 when any check fails, with one line
 per failure; a summary line at the end.
@@ -92,7 +93,7 @@ def check_grid(folder: Path) -> list[str]:
         copy = Path(tmp) / folder.name
         shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("*.safetensors", "*.pt"))
         write_report(copy, figures=False)
-        for old in sorted(folder.glob("*.md")) + sorted(folder.glob("*.csv")):
+        for old in sorted(folder.glob("table_*.md")) + sorted(folder.glob("table_*.csv")):
             new = copy / old.name
             if not new.is_file():
                 problems.append(f"{old}: not written again by biarm report")

@@ -24,13 +24,22 @@ from typing import Any
 
 import numpy as np
 
-from evodevo.config import from_dict
+from evodevo.config import from_dict, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.evidence.aggregate import DEFAULT_REPS
 from evodevo.neuromod.aggregate_table import AGGREGATE_TITLE, PROFILE_FIGURE, aggregate_markdown
+from evodevo.neuromod.checkpoint import latest_resume_point
 from evodevo.neuromod.config import BiarmConfig
 from evodevo.neuromod.continual_metrics import RunMetrics, grid_metrics
 from evodevo.neuromod.continual_table import ContinualTable, continual_runs_csv, continual_table
+from evodevo.neuromod.figures import draw_all
+from evodevo.neuromod.final_verdicts import (
+    FINAL_FILE,
+    FINAL_TITLE,
+    final_return_comparisons,
+    final_verdict_csv,
+    final_verdict_markdown,
+)
 from evodevo.neuromod.table_format import (
     csv_text,
     format_seeds,
@@ -55,9 +64,12 @@ from evodevo.neuromod.tables import (
     seeds_sentence,
     table_continual,
 )
+from evodevo.neuromod.tasks import resolve_tasks
+from evodevo.neuromod.trainer import train
+from evodevo.neuromod.variants import get_variant
 from evodevo.parallel import make_pool
 from evodevo.runs import RunDir, atomic_write_text, make_dir, read_json, write_json
-from evodevo.stats import summarise
+from evodevo.stats import permutation_test, summarise
 from evodevo.trainers import Trainer, get_trainer
 
 __all__ = [
@@ -96,13 +108,14 @@ def _run_item(item: tuple[str, int, dict[str, Any], str, Trainer | None]) -> str
     The item carries the trainer of a variant that :func:`~evodevo.neuromod.trainer.train`
     does not run itself (resolved by the parent; pickled by reference, so the worker imports
     its module)."""
-    from evodevo.neuromod.checkpoint import latest_resume_point
-    from evodevo.neuromod.trainer import train
 
     variant, seed, cfg_dict, out, trainer = item
     cfg = from_dict(BiarmConfig, cfg_dict)
     resume = latest_resume_point(Path(out) / "checkpoints") is not None
-    (trainer or train)(cfg, variant, seed, out, resume=resume)
+    if trainer is None:
+        train(cfg, variant, seed, out, resume=resume)
+    else:  # called as train calls it (evodevo.trainers)
+        trainer(cfg, get_variant(variant), seed, out, resume)
     return out
 
 
@@ -127,9 +140,6 @@ def run_grid(
         address: Ray cluster (``"auto"`` or ``HOST:PORT``); None starts a private local Ray.
             On a cluster, ``out`` must be a path every node sees (a shared file system).
     """
-    from evodevo.config import to_dict
-    from evodevo.neuromod.tasks import resolve_tasks
-    from evodevo.neuromod.variants import get_variant
 
     trainers = {v: get_trainer(get_variant(v).architecture) for v in variants}
     resolve_tasks(cfg)  # every input error before any worker starts
@@ -228,7 +238,8 @@ def continual_markdown(out: str | Path, reps: int = DEFAULT_REPS) -> str:
 
 
 def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS) -> Path:
-    """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_aggregates.md`` (IQM,
+    """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_final_verdicts.md/.csv``
+    (each variant against pnn on the final return, with a verdict), ``table_aggregates.md`` (IQM,
     probability of improvement, performance profiles), ``table_cl_metrics.md/.csv``
     (with ``table_cl_paired.csv`` and ``table_cl_runs.csv``), ``report.md`` and (optionally)
     the figures into ``out``.
@@ -247,6 +258,11 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
         text = continual_csv(runs) if name == "table_continual" else csv_text(header, rows)
         atomic_write_text(root / f"{name}.csv", text)
         parts.append(f"## {title}\n\n{body}")
+    verdicts = final_return_comparisons(runs, reps=reps)
+    body = final_verdict_markdown(verdicts)
+    atomic_write_text(root / f"{FINAL_FILE}.md", f"## {FINAL_TITLE}\n\n{body}\n{budget}\n")
+    atomic_write_text(root / f"{FINAL_FILE}.csv", final_verdict_csv(verdicts))
+    parts.append(f"## {FINAL_TITLE}\n\n{body}")
     agg = aggregate_markdown(runs, root / PROFILE_FIGURE if figures else None, reps=reps)
     atomic_write_text(root / "table_aggregates.md", f"## {AGGREGATE_TITLE}\n\n{agg}\n{budget}\n")
     parts.append(f"## {AGGREGATE_TITLE}\n\n{agg}")
@@ -262,8 +278,6 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
         atomic_write_text(root / "table_cl_runs.csv", continual_runs_csv(metrics))
         parts.append(f"## {CL_TITLE}\n\n{body}")
     if figures:
-        from evodevo.neuromod.figures import draw_all
-
         names = draw_all(root, runs)
         parts.append("## Figures\n\n" + "\n".join(f"![{n}]({n})" for n in names) + "\n")
     report = root / "report.md"
@@ -278,7 +292,6 @@ def contrast_table(dirs: Mapping[str, str | Path], variant: str = "biarm") -> st
     [95 % bootstrap] of each label over the seeds all labels share, and a paired permutation
     test (sign flips over seeds) between the first two labels.
     """
-    from evodevo.stats import permutation_test
 
     labels = list(dirs)
     runs = {lab: collect(d).get(variant, {}) for lab, d in dirs.items()}
