@@ -73,8 +73,6 @@ def _build_name() -> str:
     under one name, each would rebuild the extension for the other (the build file names the
     source's absolute path). Torch only watches ``sources`` for changes, not the headers they
     include, so their contents are part of the name too."""
-    import torch
-
     h = hashlib.sha1(f"{sys.prefix}|{torch.__version__}|{SOURCE.resolve()}".encode())
     for p in SOURCES:
         h.update(p.read_bytes())
@@ -103,6 +101,8 @@ def load() -> ModuleType | None:
     notice.daemon = True
     notice.start()
     try:
+        # part of the guarded build: it imports setuptools, whose absence is one more reason
+        # the kernels cannot be built (then the PyTorch operations run)
         from torch.utils.cpp_extension import load as build
 
         _module = build(

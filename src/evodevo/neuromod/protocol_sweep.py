@@ -29,7 +29,9 @@ import numpy as np
 
 from evodevo.config import from_dict, read_yaml, to_dict
 from evodevo.errors import ConfigError, EvodevoError
+from evodevo.neuromod.checkpoint import latest_resume_point
 from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig, TaskConfig
+from evodevo.neuromod.trainer import train
 from evodevo.neuromod.variants import get_variant
 from evodevo.parallel import make_pool
 from evodevo.runs import atomic_write_text, read_json
@@ -173,9 +175,6 @@ class SweepSpec:
 
 def _run_one(item: tuple[str, int, dict[str, Any], str]) -> str:
     """Worker body: train one single-task run into its folder (resuming if interrupted)."""
-    from evodevo.neuromod.checkpoint import latest_resume_point
-    from evodevo.neuromod.trainer import train
-
     variant, seed, cfg_dict, out = item
     cfg = from_dict(BiarmConfig, cfg_dict)
     resume = latest_resume_point(Path(out) / "checkpoints") is not None

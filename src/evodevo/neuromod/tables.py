@@ -29,7 +29,7 @@ from evodevo.neuromod.table_format import (
 from evodevo.neuromod.thesis_numbers import TABLE_3_2, TABLE_3_3_MS, TABLE_3_4, TABLE_3_5
 from evodevo.runs import read_json
 from evodevo.seed_split import range_label
-from evodevo.stats import summarise
+from evodevo.stats import permutation_test, summarise
 
 __all__ = [
     "ABLATIONS",
@@ -166,8 +166,6 @@ def paired_difference(
 
     Seeds are the unit (SPEC §6); with n shared seeds p cannot go below ``2 / 2**n``.
     """
-    from evodevo.stats import permutation_test
-
     seeds = sorted(set(a) & set(b))
     if not seeds:
         return None
