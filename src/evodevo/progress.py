@@ -20,6 +20,16 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+
 from evodevo.callbacks import Callback
 from evodevo.parallel import report_progress
 
@@ -35,14 +45,6 @@ __all__ = [
 
 
 def _columns() -> list[Any]:
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
     return [
         TextColumn("{task.description}"),
         BarColumn(),
@@ -85,8 +87,6 @@ class CommandProgress:
                 self._guard = report_progress(self._on_map)
                 self._guard.__enter__()
             return self
-        from rich.console import Console
-        from rich.progress import Progress
 
         console = Console(file=sys.stderr)
         # Rich draws a live bar only on a terminal; into a log file or a pipe (nohup, the
@@ -209,8 +209,6 @@ class _Bar:
     def __enter__(self) -> Any:
         if self.quiet:
             return self
-        from rich.console import Console
-        from rich.progress import Progress
 
         self.progress = Progress(*_columns(), console=Console(file=sys.stderr))
         self.progress.start()
@@ -271,9 +269,6 @@ class TaskBars(Callback):
 
     def __enter__(self) -> TaskBars:
         if not self.quiet:
-            from rich.console import Console
-            from rich.progress import Progress, TextColumn
-
             columns = [*_columns(), TextColumn("{task.fields[info]}")]
             self.progress = Progress(*columns, console=Console(file=sys.stderr))
             self.progress.start()

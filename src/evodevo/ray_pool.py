@@ -28,7 +28,7 @@ R = TypeVar("R")
 
 def _import_ray() -> Any:
     try:
-        import ray
+        import ray  # optional dependency: ray
     except ImportError:
         raise EvodevoError(
             "--backend ray needs Ray: pip install 'evodevo[ray]' (or use --backend local)"
@@ -40,15 +40,12 @@ class _Runner:
     """The actor body: set up once, then run items."""
 
     def __init__(self, initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
-
         worker_setup(initializer, initargs)
 
     def run(self, fn: Callable[[Any], Any], item: Any) -> Any:
         return fn(item)
 
     def pid(self) -> int:
-        import os
-
         return os.getpid()
 
 
@@ -83,7 +80,7 @@ def use_cluster_token() -> bool:
     """
     if os.environ.get("RAY_AUTH_MODE") is not None:  # explicit: respected as it is
         return False
-    try:
+    try:  # optional dependency: ray
         from ray._private.authentication.authentication_token_setup import (
             maybe_enable_token_auth_if_token_available,
         )
@@ -167,7 +164,7 @@ class RayPool:
     def map(self, fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         """``[fn(x) for x in items]`` in order, one item per idle actor at a time."""
         ray = self.ray
-        from ray.exceptions import RayActorError
+        from ray.exceptions import RayActorError  # optional dependency: ray
 
         seq = list(items)
         report = progress_callback()

@@ -18,6 +18,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import binomtest
+from scipy.stats import fisher_exact as _fe
 
 __all__ = [
     "holm",
@@ -115,8 +117,6 @@ def rate(successes: int, n: int) -> RateSummary:
 
 def fisher_exact(k1: int, n1: int, k2: int, n2: int) -> float:
     """Two-sided Fisher exact test p-value for two success counts."""
-    from scipy.stats import fisher_exact as _fe
-
     res = _fe([[k1, n1 - k1], [k2, n2 - k2]], alternative="two-sided")
     return float(res[1])
 
@@ -154,7 +154,6 @@ def mcnemar_exact_counts(n_ab: int, n_ba: int) -> float:
     n = n_ab + n_ba
     if n == 0:
         return 1.0
-    from scipy.stats import binomtest
 
     return float(binomtest(min(n_ab, n_ba), n, 0.5).pvalue)
 

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image, ImageDraw, ImageSequence
 
 from evodevo.errors import EvodevoError
 
@@ -31,8 +32,6 @@ LINE_PX = 14
 
 def annotate(frame: np.ndarray, lines: list[str]) -> np.ndarray:
     """``frame`` (H, W, 3) enlarged to at least :data:`MIN_SIDE` with ``lines`` on a band below."""
-    from PIL import Image, ImageDraw
-
     img = np.asarray(frame, dtype=np.uint8)[..., :3]
     k = max(1, -(-MIN_SIDE // min(img.shape[:2])))  # ceil
     big = np.repeat(np.repeat(img, k, axis=0), k, axis=1)
@@ -56,8 +55,6 @@ def save_frames(frames: list[np.ndarray], out: str | Path, fps: float) -> Path:
         raise EvodevoError(f"--out {str(out)!r}: write a .gif or an .mp4 file")
     out.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".gif":
-        from PIL import Image
-
         images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
         ms = max(20, int(round(1000.0 / fps)))  # GIF viewers clamp shorter delays
         images[0].save(
@@ -65,7 +62,7 @@ def save_frames(frames: list[np.ndarray], out: str | Path, fps: float) -> Path:
         )
         return out
     try:
-        import imageio.v2 as imageio
+        import imageio.v2 as imageio  # optional dependency: imageio
 
         imageio.mimsave(out, [np.asarray(f, dtype=np.uint8) for f in frames], fps=fps)
     except (ImportError, ValueError, RuntimeError) as exc:
@@ -78,8 +75,6 @@ def save_frames(frames: list[np.ndarray], out: str | Path, fps: float) -> Path:
 
 def frame_durations(gif: str | Path) -> list[int]:
     """The duration (ms) of every frame of a GIF (what a viewer shows)."""
-    from PIL import Image, ImageSequence
-
     with Image.open(gif) as im:
         return [int(f.info.get("duration", 0)) for f in ImageSequence.Iterator(im)]
 

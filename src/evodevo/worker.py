@@ -17,6 +17,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
+import threading
+import time
 from collections.abc import Callable, Iterator
 from contextvars import ContextVar
 from typing import Any
@@ -61,6 +64,7 @@ def set_single_thread() -> None:
     for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     try:
+        # imported after the variables are set: BLAS and OpenMP read them when first loaded
         import torch
 
         torch.set_num_threads(1)
@@ -83,9 +87,6 @@ def exit_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> None:
     Unlike ``prctl(PR_SET_PDEATHSIG)`` it works on every POSIX system and does not fire when
     merely the parent *thread* that spawned the worker ends.
     """
-    import threading
-    import time
-
     if os.getppid() != parent_pid:  # the parent died before we got here
         os._exit(1)
 
@@ -109,8 +110,6 @@ def local_worker_setup(
 def worker_setup(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
     """Process initializer: ignore SIGINT (the main process stops cleanly), single thread, then
     the caller's initializer."""
-    import signal
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     set_single_thread()
     if initializer is not None:

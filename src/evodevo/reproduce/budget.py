@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 from evodevo.config import doc, from_dict
 from evodevo.errors import ConfigError
+from evodevo.neuromod.protocols import PROTOCOLS
 from evodevo.neuromod.variants import VARIANTS
 
 __all__ = [
@@ -58,8 +59,6 @@ class BiarmBudget:
     )
 
     def validate(self) -> None:
-        from evodevo.neuromod.protocols import PROTOCOLS
-
         for where, name in [("biarm.protocol", self.protocol)] + [
             (f"biarm.other_protocols.{k}", v) for k, v in self.other_protocols.items()
         ]:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from evodevo.baselines.table_4_2 import markdown, read_run, write_table
+from evodevo.errors import EvodevoError
 from evodevo.reproduce.budget import ReproduceConfig
 from evodevo.reproduce.run_files import (
     TRIVIAL_TITLES,
@@ -26,9 +28,6 @@ __all__ = ["kuka_paired", "kuka_section", "learning_curve", "refill_notes", "unf
 
 def kuka_section(out: Path, cfg: ReproduceConfig) -> list[str]:
     """Thesis Table 4.2 per budget scale: every tested GRN run beside every tested baseline."""
-    from evodevo.baselines.table_4_2 import markdown, read_run, write_table
-    from evodevo.errors import EvodevoError
-
     k, g = cfg.kuka, cfg.grn
     grn_dirs = sorted(p for p in (out / "grn").glob("*_s*") if p.is_dir())
     lines = [

@@ -19,6 +19,7 @@ from typing import Any
 
 from evodevo.config import resolve, to_dict
 from evodevo.errors import EvodevoError
+from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig
 from evodevo.progress import StepBar
 from evodevo.reproduce.budget import PRESETS, ReproduceConfig
 from evodevo.reproduce.report import write_report
@@ -75,7 +76,6 @@ def _biarm_tasks(b: Any) -> list[str]:
     or, with ``task_episodes``, the whole task list with each task's episodes."""
     if not b.task_episodes:
         return ["--episodes-scale", repr(b.episodes_scale), "--tasks", ",".join(b.tasks)]
-    from evodevo.neuromod.config import THESIS_TASKS, BiarmConfig
 
     thesis = {e: (n, m) for e, n, m in THESIS_TASKS}
     default = BiarmConfig().default_episodes
