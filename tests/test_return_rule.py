@@ -1,4 +1,4 @@
-"""One model-return rule for every Kuka learner (SPEC §6; evodevo.return_rule), on the fake env.
+"""One model-return rule for every Kuka learner (SPEC §6; evodevo.grn.return_rule), on the fake env.
 
 ``validated``: the candidate with the most successes on the same validation episodes (training
 objects, validation-range seeds) is returned, for the GRN, NEAT, PPO and TD3 alike; a killed run
@@ -20,7 +20,7 @@ from evodevo.errors import CheckpointError, ConfigError
 from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluator import Episode, EpisodeResults, Evaluator
 from evodevo.grn.evolution import evolve_run
-from evodevo.return_rule import (
+from evodevo.grn.return_rule import (
     STATE_FILE,
     ValidatedBest,
     candidate_every,

@@ -4,7 +4,7 @@ One :class:`KukaBaselineConfig` per run, saved resolved in the run's ``config.js
 ``"baseline"``). Sections: ``budget`` (what every method gets: env steps and/or wall minutes),
 ``ppo`` and ``td3`` (Stable-Baselines3 settings, Table 4.1 defaults), ``recurrent_ppo`` (the
 LSTM of sb3-contrib's RecurrentPPO, the memory task's recurrent baseline), ``neat`` (neat-python
-settings, Table 4.1 defaults), ``keep`` (which model the run returns, :mod:`evodevo.return_rule`),
+settings, Table 4.1 defaults), ``keep`` (which model the run returns, :mod:`evodevo.grn.return_rule`),
 ``env`` and ``evaluation`` (the same sections, and so the same test and validation seeds, as a
 GRN run's :class:`~evodevo.grn.config.GrnConfig`).
 
@@ -235,7 +235,7 @@ class NeatConfig:
 
 @dataclass
 class KeepConfig:
-    """Which model a trained baseline returns (SPEC §6: one rule per table; evodevo.return_rule)."""
+    """Which model a trained baseline returns (SPEC §6: one rule per table; evodevo.grn.return_rule)."""
 
     rule: str = doc(
         "last",

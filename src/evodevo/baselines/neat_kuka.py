@@ -17,7 +17,7 @@ After every generation :class:`RunReporter` (a neat-python reporter) writes the 
 ``learning_curve.csv``, ``best_genome.json`` and ``summary.json``; ``resume`` restores the last
 generation both files agree on. With ``keep.rule: validated`` each generation's best is also
 scored on the validation episodes and ``best_genome.json`` is the one with the most successes
-(:mod:`evodevo.return_rule`; ``validation.csv``, ``checkpoints/validation.safetensors``). Genomes and populations are JSON
+(:mod:`evodevo.grn.return_rule`; ``validation.csv``, ``checkpoints/validation.safetensors``). Genomes and populations are JSON
 (:mod:`evodevo.baselines.neat_files`), not neat-python's pickles, so a run folder can be opened
 without running code from it. neat-python keeps its random state in Python's ``random`` module
 (it is seeded through its ``seed`` argument, like SB3's ``seed=``, and saved and restored with
@@ -43,8 +43,8 @@ from evodevo.grn.evaluator import Evaluator
 from evodevo.grn.evolution import EPISODE_KEY, training_episodes
 from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import frontend_dim, load_frontend, make_frontend, save_frontend
-from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
-from evodevo.return_rule import VALIDATED, ValidatedBest, summary_fields
+from evodevo.grn.return_rule import STATE_FILE as VALIDATION_FILE
+from evodevo.grn.return_rule import VALIDATED, ValidatedBest, summary_fields
 from evodevo.runs import RunDir, atomic_write_text, read_json, write_json
 from evodevo.safe_io import legacy_error
 

@@ -2,7 +2,7 @@
 (wall time minus the time spent estimating success), the budget stop, the timed success
 estimate that writes ``learning_curve.csv``, the env-step reports to evodevo's callbacks, the
 checkpoint clock and pruning, and the ``validated`` return rule's candidates
-(:mod:`evodevo.return_rule`).
+(:mod:`evodevo.grn.return_rule`).
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from evodevo.baselines.policies import Sb3Model
 from evodevo.baselines.sb3_files import MODEL_SUFFIX, save_sb3
 from evodevo.callbacks import Callback
 from evodevo.grn.evaluator import Evaluator
-from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
-from evodevo.return_rule import ValidatedBest
+from evodevo.grn.return_rule import STATE_FILE as VALIDATION_FILE
+from evodevo.grn.return_rule import ValidatedBest
 from evodevo.runs import RunDir, read_json, write_json
 
 __all__ = [

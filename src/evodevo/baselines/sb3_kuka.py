@@ -14,7 +14,7 @@ same loop trains sb3-contrib's RecurrentPPO (:mod:`evodevo.baselines.recurrent_p
   writing the model, and TD3's replay buffer, without pickle), :class:`ClockCallback` (training time of each checkpoint, older checkpoints pruned),
   :class:`BudgetCallback` (stops at the env-step or wall-clock budget) and, with
   ``keep.rule: validated``, :class:`ValidationCallback` (a candidate snapshot every ``N`` env
-  steps scored on the validation episodes by the GRN's evaluator, :mod:`evodevo.return_rule`).
+  steps scored on the validation episodes by the GRN's evaluator, :mod:`evodevo.grn.return_rule`).
 
 :func:`train_sb3` writes ``model.safetensors``, ``learning_curve.csv`` (env steps, training
 seconds, success), ``summary.json`` and ``checkpoints/`` (with ``keep.rule: validated`` also
@@ -69,8 +69,8 @@ from evodevo.callbacks import Callback
 from evodevo.callbacks import CallbackList as RunCallbacks
 from evodevo.errors import EvodevoError
 from evodevo.grn.evaluator import Evaluator, make_env
-from evodevo.return_rule import STATE_FILE as VALIDATION_FILE
-from evodevo.return_rule import VALIDATED, ValidatedBest, candidate_every, summary_fields
+from evodevo.grn.return_rule import STATE_FILE as VALIDATION_FILE
+from evodevo.grn.return_rule import VALIDATED, ValidatedBest, candidate_every, summary_fields
 from evodevo.runs import RunDir, atomic_write_bytes, machine_info, read_json, write_json
 from evodevo.safe_io import refuse_legacy
 from evodevo.seeding import derive

@@ -13,7 +13,7 @@ several seeds pooled):
   over the runs that reached it, with how many did;
 * env steps of training (mean per run) and test episodes (total);
 * the return rule of each method's runs, read from their ``config.json`` (``evolution.keep``,
-  ``keep.rule``; :mod:`evodevo.return_rule`), and the validation episodes it ran (mean per run;
+  ``keep.rule``; :mod:`evodevo.grn.return_rule`), and the validation episodes it ran (mean per run;
   not training budget), with one sentence above the table saying whether every learner
   returns its model by the same rule (SPEC §6);
 * the thesis' numbers (Table 4.2) in their own columns.
@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from evodevo.errors import EvodevoError
-from evodevo.return_rule import describe_rule, rules_sentence
+from evodevo.grn.return_rule import describe_rule, rules_sentence
 from evodevo.runs import RunDir, atomic_write_text, read_json
 from evodevo.seed_split import range_label
 from evodevo.stats import rate
@@ -67,7 +67,7 @@ class RunRow:
     objects: str
     test_seed: int
     return_rule: str = ""
-    """The rule the run returned its model by (:func:`evodevo.return_rule.describe_rule`)."""
+    """The rule the run returned its model by (:func:`evodevo.grn.return_rule.describe_rule`)."""
     validation_episodes: int = 0
     """Validation episodes of that rule (not training budget)."""
     saved: dict[str, Any] | None = None

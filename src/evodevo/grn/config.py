@@ -31,7 +31,7 @@ PARAMETER_BLOCKS = ("theta", "delta", "alpha")
 GENOME_BLOCKS = WEIGHT_BLOCKS + PARAMETER_BLOCKS
 """Every block that ``mutation.block_sigma`` and ``mutation.block_p`` may name."""
 KEEP = ("last", "record", "validated")
-"""Values of ``evolution.keep``: which genome an evolution returns (:mod:`evodevo.return_rule`)."""
+"""Values of ``evolution.keep``: which genome an evolution returns (:mod:`evodevo.grn.return_rule`)."""
 OPTIMIZERS = ("ga", "cmaes")
 """Values of ``evolution.optimizer``: the thesis' genetic algorithm, or CMA-ES."""
 DISTANCE_TO = ("nearest", "target")
@@ -282,7 +282,7 @@ class EvolutionConfig:
         "same evaluation.validation_episodes clean training-object episodes from "
         "evaluation.validation_seed; the run returns the one with the most successes, the "
         "later on a tie; those episodes are counted apart from the training budget and "
-        "selection is unchanged; evodevo.return_rule)",
+        "selection is unchanged; evodevo.grn.return_rule)",
     )
 
     @property

@@ -16,7 +16,7 @@ feed-forward arms and later kinds reuse it. :func:`evolve_run` wires it to a run
 ``encoder.pt``, ``config.json``, ``history.csv``, ``best_genome.npz``, ``summary.json`` and an
 atomic checkpoint after every generation (population, optimiser state as arrays and JSON,
 history) so ``resume`` continues exactly where an interrupted run stopped. Which genome the run
-returns is ``evolution.keep`` (:mod:`evodevo.return_rule`): ``validated`` adds
+returns is ``evolution.keep`` (:mod:`evodevo.grn.return_rule`): ``validated`` adds
 ``validation.csv`` and ``checkpoints/validation.safetensors``.
 """
 
@@ -50,8 +50,8 @@ from evodevo.grn.fitness import distance_penalty, fitness_matrix
 from evodevo.grn.frontends import load_frontend, make_frontend, save_frontend
 from evodevo.grn.genome import load_arrays, save_arrays
 from evodevo.grn.optimizers import make_optimizer
+from evodevo.grn.return_rule import STATE_FILE, VALIDATED, ValidatedBest
 from evodevo.grn.selection import rank
-from evodevo.return_rule import STATE_FILE, VALIDATED, ValidatedBest
 from evodevo.runs import RunDir, write_json
 from evodevo.seeding import derive, np_rng
 from evodevo.signals import GracefulStop
@@ -145,7 +145,7 @@ class Evolution:
         self.champion_key: str | None = None
         self.validated: ValidatedBest | None = None
         """``evolution.keep: validated``: each generation's best scored on the validation
-        episodes, the one with the most successes kept (:mod:`evodevo.return_rule`)."""
+        episodes, the one with the most successes kept (:mod:`evodevo.grn.return_rule`)."""
         if config.evolution.keep == VALIDATED:
             ev = config.evaluation
             self.validated = ValidatedBest(ev.validation_seed, ev.validation_episodes, "generation")

@@ -18,7 +18,7 @@ import numpy as np
 
 from evodevo.callbacks import Callback
 from evodevo.config import to_dict
-from evodevo.return_rule import summary_fields
+from evodevo.grn.return_rule import summary_fields
 from evodevo.runs import RunDir, machine_info
 from evodevo.signals import GracefulStop
 

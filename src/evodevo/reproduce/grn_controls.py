@@ -14,9 +14,9 @@ from typing import Any
 
 from evodevo.evidence.normalise import SUCCESS_RATE_MARGIN
 from evodevo.evidence.verdict import compare, holm_table, to_markdown
+from evodevo.grn.return_rule import describe_rule
 from evodevo.reproduce.budget import GrnBudget
 from evodevo.reproduce.run_files import TRIVIAL_TITLES, fmt_pair, load_json, paired, successes
-from evodevo.return_rule import describe_rule
 from evodevo.seeding import parse_seeds
 from evodevo.stats import fisher_exact, rate
 

@@ -17,6 +17,7 @@ from evodevo.grn.ablation_pooling import (
     pooled_ablations_markdown,
     read_ablation_tables,
 )
+from evodevo.grn.return_rule import describe_rule, rules_sentence
 from evodevo.neuromod.aggregate_table import AGGREGATE_TITLE, aggregate_markdown
 from evodevo.neuromod.compare import CL_TITLE, collect, continual_markdown
 from evodevo.neuromod.table_format import format_seeds, table_markdown
@@ -29,7 +30,6 @@ from evodevo.reproduce.grn_controls import controls_block
 from evodevo.reproduce.html_report import markdown_to_html
 from evodevo.reproduce.kuka_report import kuka_section
 from evodevo.reproduce.run_files import fmt_pair, load_json, paired, pct, successes
-from evodevo.return_rule import describe_rule, rules_sentence
 from evodevo.runs import atomic_write_text, machine_info
 from evodevo.seed_split import range_label
 from evodevo.seeding import parse_seeds
