@@ -84,3 +84,67 @@ def test_a_fresh_process_loads_a_baseline_run_through_evodevo_load():
     run = SRC.parents[1] / "docs" / "results" / "grn_vision" / "ppo_blob_s0"
     code = f"import evodevo; p = evodevo.load({str(run)!r}); assert p.kind == 'ppo', p.kind"
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """Module -> the package modules it imports, at the top or inside functions (imports under
+    ``if TYPE_CHECKING:`` excluded: they never run)."""
+    mods = {}
+    for p in SRC.rglob("*.py"):
+        parts = ("evodevo", *p.relative_to(SRC).with_suffix("").parts)
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        mods[name] = p
+
+    def resolve(name: str) -> str:
+        while name and name not in mods:
+            name = name.rpartition(".")[0]
+        return name
+
+    graph: dict[str, set[str]] = {m: set() for m in mods}
+    for m, p in mods.items():
+        tree = ast.parse(p.read_text())
+        typing_only = {
+            id(k)
+            for n in ast.walk(tree)
+            if isinstance(n, ast.If) and "TYPE_CHECKING" in ast.unparse(n.test)
+            for k in ast.walk(n)
+        }
+        pkg = m if p.name == "__init__.py" else m.rpartition(".")[0]
+        for n in ast.walk(tree):
+            if id(n) in typing_only:
+                continue
+            if isinstance(n, ast.Import):
+                targets = [a.name for a in n.names]
+            elif isinstance(n, ast.ImportFrom):
+                base = n.module or ""
+                if n.level:
+                    up = pkg.split(".")[: len(pkg.split(".")) - (n.level - 1)]
+                    base = ".".join([*up, base] if base else up)
+                targets = [f"{base}.{a.name}" for a in n.names]
+            else:
+                continue
+            for t in targets:
+                if t.startswith("evodevo") and resolve(t) not in ("", m):
+                    graph[m].add(resolve(t))
+    return graph
+
+
+def test_the_import_graph_has_no_cycle_counting_imports_inside_functions():
+    graph = _module_graph()
+    state: dict[str, int] = {}
+    cycles: list[list[str]] = []
+
+    def visit(m: str, path: list[str]) -> None:
+        state[m] = 1
+        for n in sorted(graph[m]):
+            if state.get(n) == 1:
+                cycles.append([*path[path.index(n) :], n])
+            elif n not in state:
+                visit(n, [*path, n])
+        state[m] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [m])
+    assert cycles == [], " ; ".join(" -> ".join(c) for c in cycles)
+    assert len(graph) > 100 and sum(map(len, graph.values())) > 300  # the walk saw the package
