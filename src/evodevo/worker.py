@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterator
 from contextvars import ContextVar
 from typing import Any
 
+import torch
+
 __all__ = [
     "ProgressCallback",
     "report_progress",
@@ -63,16 +65,10 @@ def set_single_thread() -> None:
     """Limit torch and BLAS to one thread in this process (call once per worker)."""
     for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ.setdefault(var, "1")
-    try:
-        # imported after the variables are set: BLAS and OpenMP read them when first loaded
-        import torch
-
-        torch.set_num_threads(1)
-        if torch.get_num_interop_threads() != 1:
-            with contextlib.suppress(RuntimeError):
-                torch.set_num_interop_threads(1)
-    except ImportError:  # pragma: no cover - torch is a hard dependency
-        pass
+    torch.set_num_threads(1)
+    if torch.get_num_interop_threads() != 1:
+        with contextlib.suppress(RuntimeError):
+            torch.set_num_interop_threads(1)
 
 
 #: Seconds between two looks at the parent's pid in :func:`exit_with_parent`.

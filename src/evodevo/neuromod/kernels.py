@@ -101,8 +101,8 @@ def load() -> ModuleType | None:
     notice.daemon = True
     notice.start()
     try:
-        # part of the guarded build: it imports setuptools, whose absence is one more reason
-        # the kernels cannot be built (then the PyTorch operations run)
+        # optional dependency: setuptools (torch's extension builder imports it); without it the
+        # kernels cannot be built and the PyTorch operations run, as without a compiler
         from torch.utils.cpp_extension import load as build
 
         _module = build(
