@@ -132,7 +132,7 @@ def test_distance_at_grasp_reads_the_reach_and_keeps_the_skipped_lift() -> None:
     import dataclasses
 
     from evodevo.grn.config import EvaluationConfig, GrnConfig
-    from evodevo.grn.evaluator import evaluator_env_kwargs, grasp_distance
+    from evodevo.grn.env_interface import evaluator_env_kwargs, grasp_distance
 
     cfg = GrnConfig()
     at_grasp = dataclasses.replace(
