@@ -70,7 +70,7 @@ class _Recorder(gym.Wrapper):  # type: ignore[type-arg]
         return obs, r, term, trunc, info
 
     def result(self) -> dict[str, Any]:
-        from evodevo.grn.evaluator import grasp_distance
+        from evodevo.grn.env_interface import grasp_distance
 
         return {
             "before": self.before.hexdigest()[:16],
