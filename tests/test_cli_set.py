@@ -56,6 +56,7 @@ def test_every_training_and_test_command_takes_set():
         "biarm compare",
         "biarm sweep",
         "grn ablate",
+        "grn video",
     }
     assert any("--set" in p.opts for p in root.get_command(ctx, "reproduce").params)
 

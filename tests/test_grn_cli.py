@@ -119,6 +119,18 @@ def test_ablate_with_set_writes_its_own_files_and_refuses_training_keys(fake_run
         invoke("ablate", fake_run, "--test-episodes", 2, "--set", "genome.regulation=false")
 
 
+def test_video_with_set_runs_the_changed_test_and_refuses_training_keys(fake_run, tmp_path):
+    import evodevo
+
+    policy = evodevo.load(fake_run, overrides={"env": {"kwargs": {"max_steps": 3}}})
+    assert policy.config.env.kwargs["max_steps"] == 3  # what the film runs on
+    gif = tmp_path / "short.gif"
+    invoke("video", fake_run, "--out", gif, "--set", "env.kwargs.max_steps=3")
+    assert gif.stat().st_size > 0
+    with pytest.raises(EvodevoError, match="genome"):
+        invoke("video", fake_run, "--out", gif, "--set", "genome.regulation=false")
+
+
 def test_open_loop_and_blind_runs(tmp_path):
     cfg = tmp_path / "fake.yaml"
     cfg.write_text(

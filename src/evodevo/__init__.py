@@ -18,11 +18,12 @@ Acting with a trained run (:mod:`evodevo.policy`)::
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from evodevo.errors import EvodevoError
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
     from pathlib import Path
 
     from evodevo.policy import Policy
@@ -31,14 +32,19 @@ __all__ = ["EvodevoError", "__version__", "load"]
 __version__ = "0.1.0"
 
 
-def load(run_dir: str | Path, task: int | str | None = None) -> Policy:
+def load(
+    run_dir: str | Path,
+    task: int | str | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> Policy:
     """The trained policy of a run directory: ``policy.reset()``, ``policy.predict(obs, info)``.
 
-    GRN, neuromodulated GRN and Kuka baseline runs; for a BIARM run, ``task`` picks the column
-    (index or Gymnasium id). See :mod:`evodevo.policy`.
+    GRN, neuromodulated GRN and Kuka baseline runs (``overrides``: ``evaluation.*`` and
+    ``env.*`` keys of what it is run on); for a BIARM run, ``task`` picks the column (index or
+    Gymnasium id). See :mod:`evodevo.policy`.
     """
     # imported here to keep `import evodevo` light: evodevo.policy brings torch, gymnasium
     # and both methods' modules
     from evodevo.policy import load as _load
 
-    return _load(run_dir, task)
+    return _load(run_dir, task, overrides)

@@ -22,6 +22,7 @@ module states as training left them, as ``evaluate_column`` does.
 from __future__ import annotations
 
 import abc
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -227,13 +228,19 @@ def _task_index(specs: list[Any], task: int | str) -> int:
 
 
 # --------------------------------------------------------------------------------------- load
-def load(run_dir: str | Path, task: int | str | None = None) -> Policy:
+def load(
+    run_dir: str | Path,
+    task: int | str | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> Policy:
     """The trained policy of a run directory.
 
     Args:
         run_dir: a run of ``grn evolve``, ``baselines kuka`` or ``biarm train`` (in a
             ``biarm compare`` folder: ``OUT/runs/VARIANT__sSEED``).
         task: BIARM only: the column, as an index or a Gymnasium id (``"CartPole-v1"``).
+        overrides: GRN and Kuka-baseline runs only: what the policy is run on, ``evaluation.*``
+            and ``env.*`` keys (``--set`` of a test; :func:`evodevo.grn.evaluation.test_overrides`).
 
     Raises:
         EvodevoError: the folder holds no run, a run of another kind, or no trained policy.
@@ -241,10 +248,15 @@ def load(run_dir: str | Path, task: int | str | None = None) -> Policy:
     run = RunDir(run_dir, create=False)
     kind = run.read_config().get("kind")
     if kind == "biarm":
+        if overrides:
+            raise EvodevoError(
+                "overrides (--set) apply to GRN and Kuka-baseline runs; a BIARM column is run "
+                "on its task as trained"
+            )
         return _load_biarm(run.path, task)
     if task is not None:
         raise EvodevoError(f"task= applies to BIARM runs; {str(run.path)!r} is a {kind!r} run")
-    return GrnPolicy(load_run(run.path))
+    return GrnPolicy(load_run(run.path, overrides))
 
 
 def _load_biarm(path: Path, task: int | str | None) -> BiarmPolicy:

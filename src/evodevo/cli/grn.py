@@ -458,6 +458,7 @@ def video(
     objects: str = typer.Option("test", help="test or train objects."),
     fps: float = typer.Option(2.0, help="Frames (environment steps) per second."),
     max_steps: int | None = typer.Option(None, help="Stop filming after this many steps."),
+    set_: list[str] | None = typer.Option(None, "--set", help=TEST_SET_HELP),
 ) -> None:
     """Film the best genome on one test episode: step, action, reward and success on each frame.
 
@@ -477,7 +478,7 @@ def video(
             f"{str(run_dir)!r} is a BIARM run; film one of its columns with `evodevo biarm "
             f"video {run_dir} --task N --out {out}`"
         )
-    policy = evodevo.load(run_dir)
+    policy = evodevo.load(run_dir, overrides=parse_sets(set_))
     cfg = policy.config  # type: ignore[attr-defined]
     ep = fixed_test_episodes(cfg.evaluation.test_seed, episode + 1, objects == "test")[episode]
     env = policy.make_env(test_objects=ep.test_objects, render_mode="rgb_array")  # type: ignore[call-arg]
