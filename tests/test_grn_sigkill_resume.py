@@ -78,10 +78,13 @@ def _summary(run: Path) -> dict[str, object]:
 def _kill_mid_generation(proc: subprocess.Popen[str], run: Path, kill: Callable[[], None]) -> int:
     """Wait for a new ``history.csv`` row, then kill half a generation later; rows at the kill."""
     start = len(_rows(run))
+    # a generation to spare where there is room: on a loaded machine the generation after the
+    # kill's trigger can finish before the kill lands, and then it must not be the last one
+    last = GENERATIONS - 1 if start < GENERATIONS - 2 else GENERATIONS
     deadline = time.time() + TIMEOUT
     while time.time() < deadline and proc.poll() is None:
         rows = _rows(run)
-        if len(rows) > start and len(rows) < GENERATIONS:
+        if len(rows) > start and len(rows) < last:
             time.sleep(0.5 * float(rows[-1]["eval_s"]))  # mid-way through the next generation
             kill()
             proc.wait(timeout=60)
