@@ -30,6 +30,7 @@ from evodevo.baselines.policies import (
     Sb3Policy,
     ScriptedPolicy,
 )
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import register_baseline, register_controller
 from evodevo.grn.evaluation import register_run_loader
 from evodevo.trainers import register_trainer
@@ -44,7 +45,7 @@ def train_sb3_dqn(*args: Any, **kwargs: Any) -> dict[str, Any]:
     return train_sb3_tasks(*args, **kwargs)
 
 
-def recurrent_ppo_policy(config: Any, n_actions: int) -> Any:
+def recurrent_ppo_policy(config: GrnConfig, n_actions: int) -> Any:
     """The controller of a RecurrentPPO run (:class:`~evodevo.baselines.recurrent_ppo.RecurrentPpoPolicy`)."""
     from evodevo.baselines.recurrent_ppo import (
         RecurrentPpoPolicy,  # optional dependency: sb3-contrib

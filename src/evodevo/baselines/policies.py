@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from evodevo.errors import CheckpointError
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.frontends import BlobLocaliser
 from evodevo.safe_io import legacy_error
 
@@ -81,7 +82,7 @@ class Sb3Policy:
     uses_encoder = False
     uses_image = True
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         self.n_actions = int(n_actions)
         self._models: dict[Sb3Model, Any] = {}
         # ppo.encoder: blob -> the model reads the blob front-end's features; the
@@ -211,7 +212,7 @@ class NeatPolicy:
 
     uses_encoder = True
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         self.n_actions = int(n_actions)
         self.visual_noise = float(config.evaluation.visual_noise)
         self._configs: dict[str, Any] = {}
@@ -275,7 +276,7 @@ class ScriptedPolicy:
     uses_encoder = False
     uses_image = True
 
-    def __init__(self, config: Any, n_actions: int) -> None:
+    def __init__(self, config: GrnConfig, n_actions: int) -> None:
         self.n_actions = int(n_actions)
         if self.n_actions != 3:
             raise CheckpointError(
