@@ -79,12 +79,15 @@ def _kill_mid_generation(proc: subprocess.Popen[str], run: Path, kill: Callable[
     """Wait for a new ``history.csv`` row, then kill half a generation later; rows at the kill."""
     start = len(_rows(run))
     # a generation to spare where there is room: on a loaded machine the generation after the
-    # kill's trigger can finish before the kill lands, and then it must not be the last one
+    # kill's trigger can finish before the kill lands, and then it must not be the last one;
+    # and a fresh run's wait is timed on its second generation, not on the first (which pays
+    # for starting the worker pool and would let every later generation finish first)
     last = GENERATIONS - 1 if start < GENERATIONS - 2 else GENERATIONS
+    first = 2 if start == 0 else start + 1
     deadline = time.time() + TIMEOUT
     while time.time() < deadline and proc.poll() is None:
         rows = _rows(run)
-        if len(rows) > start and len(rows) < last:
+        if first <= len(rows) < last:
             time.sleep(0.5 * float(rows[-1]["eval_s"]))  # mid-way through the next generation
             kill()
             proc.wait(timeout=60)
