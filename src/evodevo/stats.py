@@ -18,8 +18,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import binomtest
-from scipy.stats import fisher_exact as _fe
 
 __all__ = [
     "holm",
@@ -117,6 +115,10 @@ def rate(successes: int, n: int) -> RateSummary:
 
 def fisher_exact(k1: int, n1: int, k2: int, n2: int) -> float:
     """Two-sided Fisher exact test p-value for two success counts."""
+    # scipy.stats costs ~0.4 s to import, paid by every worker process that imports evodevo.grn;
+    # only the tests of a table need it, so it is imported here
+    from scipy.stats import fisher_exact as _fe
+
     res = _fe([[k1, n1 - k1], [k2, n2 - k2]], alternative="two-sided")
     return float(res[1])
 
@@ -154,6 +156,7 @@ def mcnemar_exact_counts(n_ab: int, n_ba: int) -> float:
     n = n_ab + n_ba
     if n == 0:
         return 1.0
+    from scipy.stats import binomtest  # lazy: see fisher_exact
 
     return float(binomtest(min(n_ab, n_ba), n, 0.5).pvalue)
 
