@@ -148,3 +148,30 @@ def test_the_import_graph_has_no_cycle_counting_imports_inside_functions():
             visit(m, [m])
     assert cycles == [], " ; ".join(" -> ".join(c) for c in cycles)
     assert len(graph) > 100 and sum(map(len, graph.values())) > 300  # the walk saw the package
+
+
+#: Heavy libraries (each 0.3-1.2 s to import) that the command line, the run layer and the
+#: workers' modules import only where they are used: rliable (pandas, arch), matplotlib, cma
+#: and scipy.stats. Every CLI call and every spawned worker would otherwise pay them.
+HEAVY_ON_USE = ("rliable", "matplotlib", "cma", "scipy.stats", "pandas")
+
+
+@pytest.mark.parametrize(
+    "module",
+    [
+        "evodevo.cli",
+        "evodevo.neuromod.compare",
+        "evodevo.grn.evolution",
+        "evodevo.grn.evaluator",
+        "evodevo.evidence",
+    ],
+)
+def test_importing_a_module_leaves_the_heavy_libraries_for_later(module: str):
+    code = (
+        f"import sys, {module}; "
+        f"print(sorted(m for m in {HEAVY_ON_USE!r} if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    ).stdout.strip()
+    assert out == "[]", f"importing {module} imported {out}"

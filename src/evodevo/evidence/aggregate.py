@@ -23,13 +23,12 @@ True
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from rliable import library as rly
-from rliable import metrics
 
 __all__ = [
     "DEFAULT_REPS",
@@ -51,11 +50,33 @@ DEFAULT_REPS = 10_000
 #: Coverage of every interval.
 LEVEL = 0.95
 
+
+# rliable is imported where it is used, not at the top: it brings pandas, arch and scipy.stats
+# (1.2 s), which every CLI call and every spawned worker that imports a comparison module
+# would otherwise pay, whether or not it bootstraps anything.
+
+
+def _iqm(scores: np.ndarray) -> Any:
+    from rliable import metrics
+
+    return metrics.aggregate_iqm(scores)
+
+
+def _mean(scores: np.ndarray) -> Any:
+    from rliable import metrics
+
+    return metrics.aggregate_mean(scores)
+
+
+def probability_of_improvement_statistic(x: np.ndarray, y: np.ndarray) -> Any:
+    """rliable's probability-of-improvement statistic of two ``runs x tasks`` matrices."""
+    from rliable import metrics
+
+    return metrics.probability_of_improvement(x, y)
+
+
 #: The aggregates :func:`aggregate_scores` reports, by name, as rliable computes them.
-AGGREGATES: dict[str, Callable[[np.ndarray], Any]] = {
-    "IQM": metrics.aggregate_iqm,
-    "Mean": metrics.aggregate_mean,
-}
+AGGREGATES: dict[str, Callable[[np.ndarray], Any]] = {"IQM": _iqm, "Mean": _mean}
 
 #: What a bootstrap can be seeded with: an int, or a NumPy generator used as it stands.
 Seed = int | np.random.Generator | np.random.RandomState
@@ -68,26 +89,29 @@ def make_generator(seed: Seed) -> np.random.Generator | np.random.RandomState:
     return np.random.default_rng(int(seed))
 
 
-class _SeededStratifiedBootstrap(rly.StratifiedBootstrap):
-    """rliable's stratified bootstrap drawing its run indices from its own generator."""
+@functools.cache
+def _bootstraps() -> tuple[type, type]:
+    """rliable's stratified bootstraps, subclassed to draw their run indices from their own
+    generator (the plain and the independent one); built on first use (rliable is heavy)."""
+    from rliable import library as rly
 
-    def update_indices(self) -> tuple[np.ndarray, ...]:
-        indices = self.generator.choice(self._num_items, self._args_shape, replace=True)
-        if self._task_bootstrap:
-            tasks = self.generator.choice(
-                self._num_tasks, self._strata_indices[0].shape, replace=True
-            )
-            return (indices, tasks, *self._strata_indices[1:])
-        return (indices, *self._strata_indices)
+    class SeededStratifiedBootstrap(rly.StratifiedBootstrap):  # type: ignore[misc]
+        def update_indices(self) -> tuple[np.ndarray, ...]:
+            indices = self.generator.choice(self._num_items, self._args_shape, replace=True)
+            if self._task_bootstrap:
+                tasks = self.generator.choice(
+                    self._num_tasks, self._strata_indices[0].shape, replace=True
+                )
+                return (indices, tasks, *self._strata_indices[1:])
+            return (indices, *self._strata_indices)
 
+    class SeededStratifiedIndependentBootstrap(rly.StratifiedIndependentBootstrap):  # type: ignore[misc]
+        def _get_indices(
+            self, num_runs: int, array_shape: tuple[int, ...], strata_indices: list[np.ndarray]
+        ) -> tuple[np.ndarray, ...]:
+            return (self.generator.choice(num_runs, array_shape, replace=True), *strata_indices)
 
-class _SeededStratifiedIndependentBootstrap(rly.StratifiedIndependentBootstrap):
-    """rliable's independent stratified bootstrap drawing from its own generator."""
-
-    def _get_indices(
-        self, num_runs: int, array_shape: tuple[int, ...], strata_indices: list[np.ndarray]
-    ) -> tuple[np.ndarray, ...]:
-        return (self.generator.choice(num_runs, array_shape, replace=True), *strata_indices)
+    return SeededStratifiedBootstrap, SeededStratifiedIndependentBootstrap
 
 
 def _check(name: str, scores: np.ndarray) -> np.ndarray:
@@ -130,15 +154,16 @@ def interval_estimates(
         raise ValueError(f"reps={reps} must be at least 1 (SPEC §7 reports use 10,000)")
     points: dict[str, np.ndarray] = {}
     intervals: dict[str, np.ndarray] = {}
+    plain, independent = _bootstraps()
     for key, scores in score_dict.items():
         gen = make_generator(seed)
         if isinstance(scores, np.ndarray):
             data = _check(key, scores)
-            bs: Any = _SeededStratifiedBootstrap(data, task_bootstrap=task_bootstrap, seed=gen)
+            bs: Any = plain(data, task_bootstrap=task_bootstrap, seed=gen)
             points[key] = np.atleast_1d(np.asarray(func(data), dtype=float))
         else:
             arrays = [_check(key, s) for s in scores]
-            bs = _SeededStratifiedIndependentBootstrap(*arrays, seed=gen)
+            bs = independent(*arrays, seed=gen)
             points[key] = np.atleast_1d(np.asarray(func(*arrays), dtype=float))
         intervals[key] = np.asarray(
             bs.conf_int(func, reps=reps, size=level, method="percentile"), dtype=float
@@ -247,7 +272,7 @@ def probability_of_improvement(
                 raise KeyError(f"learner {k!r} is not among the scores {sorted(score_dict)}")
     pair_dict = {f"{x},{y}": [score_dict[x], score_dict[y]] for x, y in pairs}
     points, intervals = interval_estimates(
-        pair_dict, metrics.probability_of_improvement, reps=reps, seed=seed, level=level
+        pair_dict, probability_of_improvement_statistic, reps=reps, seed=seed, level=level
     )
     out: dict[tuple[str, str], Estimate] = {}
     for x, y in pairs:
@@ -292,6 +317,8 @@ def performance_profiles(
         per_run: rliable's score distribution (fraction of all run-task scores above τ); if
             False, the fraction of tasks whose mean over runs is above τ.
     """
+    from rliable import library as rly
+
     tau_arr = np.asarray(taus, dtype=float)
     dist = rly.score_distributions if per_run else rly.average_score_distributions
 

@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from statistics import NormalDist
 
 import numpy as np
-from rliable import metrics
-from scipy import stats as sps
 
 from evodevo.evidence.aggregate import (
+    AGGREGATES,
     DEFAULT_REPS,
     LEVEL,
     Estimate,
@@ -32,6 +32,9 @@ from evodevo.evidence.aggregate import (
     make_generator,
 )
 from evodevo.stats import holm
+
+#: The standard normal (its quantiles; the standard library's, exact to ~1e-15).
+_Z = NormalDist()
 
 __all__ = [
     "MAX_EXACT_RUNS",
@@ -115,6 +118,8 @@ def wilcoxon_test(diffs: Sequence[float] | np.ndarray) -> float:
         )
     if not np.any(d):
         return 1.0
+    from scipy import stats as sps  # 0.4 s at import; only this test needs it
+
     return float(sps.wilcoxon(d, alternative="two-sided").pvalue)
 
 
@@ -131,7 +136,7 @@ def paired_difference_interval(
     """
     d = _diffs(diffs)
     points, intervals = interval_estimates(
-        {"d": d[:, None]}, metrics.aggregate_mean, reps=reps, seed=seed, level=level
+        {"d": d[:, None]}, AGGREGATES["Mean"], reps=reps, seed=seed, level=level
     )
     return Estimate(float(points["d"][0]), float(intervals["d"][0, 0]), float(intervals["d"][1, 0]))
 
@@ -178,5 +183,5 @@ def minimum_detectable_difference(
         raise ValueError(f"n={n} runs must be at least 1")
     if std_diff < 0:
         raise ValueError(f"std_diff={std_diff} must be >= 0")
-    z = float(sps.norm.ppf(1 - alpha / 2) + sps.norm.ppf(power))
+    z = _Z.inv_cdf(1 - alpha / 2) + _Z.inv_cdf(power)
     return z * std_diff / math.sqrt(n)

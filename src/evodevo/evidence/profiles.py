@@ -13,12 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
-from rliable import plot_utils
 
 from evodevo.evidence.aggregate import Profiles
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_performance_profiles", "plot_interval_estimates"]
 
@@ -52,6 +54,9 @@ def plot_performance_profiles(
         ylabel: Label of the y axis.
         title: Optional title.
     """
+    from matplotlib.figure import Figure
+    from rliable import plot_utils  # heavy (pandas, arch); imported on use, as in aggregate.py
+
     fig = Figure(figsize=(7.0, 4.5))
     ax = fig.subplots()
     plot_utils.plot_performance_profiles(
@@ -98,6 +103,8 @@ def plot_interval_estimates(
                 f"{np.shape(intervals[n])} do not match {k} metrics {list(metric_names)}"
             )
     colors = _colors(names)
+    from matplotlib.figure import Figure  # 0.35 s; imported on use, as rliable is
+
     fig = Figure(figsize=(3.4 * k, 0.9 + 0.45 * len(names)))
     axes = np.atleast_1d(fig.subplots(1, k, sharey=True))
     for j, (ax, metric) in enumerate(zip(axes, metric_names, strict=True)):

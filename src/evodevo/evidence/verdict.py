@@ -32,10 +32,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from statistics import NormalDist
 from typing import ClassVar, Literal
 
 import numpy as np
-from scipy import stats as sps
 
 from evodevo.evidence.aggregate import DEFAULT_REPS, LEVEL, Seed
 from evodevo.evidence.paired import (
@@ -111,8 +111,8 @@ def runs_needed(
     if not delta > 0:
         raise ValueError(f"delta={delta} must be > 0")
     m, s = abs(float(mean_diff)), float(std_diff)
-    z_c = float(sps.norm.ppf((1 + level) / 2))
-    z_ab = float(sps.norm.ppf(1 - alpha / (2 * family_size)) + sps.norm.ppf(power))
+    z_c = NormalDist().inv_cdf((1 + level) / 2)
+    z_ab = NormalDist().inv_cdf(1 - alpha / (2 * family_size)) + NormalDist().inv_cdf(power)
     routes: list[int] = []
     if m < delta:
         routes.append(math.floor((z_c * s / (delta - m)) ** 2) + 1)

@@ -16,7 +16,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -24,6 +23,7 @@ from evodevo.errors import EvodevoError
 from evodevo.grn.genome import load_arrays
 from evodevo.grn.neuromodulated import MODULATOR_TRACE_FILE
 from evodevo.grn.recording import TRACE_FILE
+from evodevo.plotting import pyplot
 from evodevo.runs import RunDir
 
 __all__ = ["plot_run", "plot_modulator_trace", "ROLLING_WINDOW"]
@@ -32,24 +32,13 @@ ROLLING_WINDOW = 10
 """Episodes in the rolling success window."""
 
 
-def _plt() -> Any:
-    # imported when a figure is drawn, so that choosing the Agg backend is no side effect of
-    # importing this module
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _col(rows: list[dict[str, str]], key: str) -> np.ndarray:
     return np.array([float(r[key]) for r in rows])
 
 
 def plot_history(run: RunDir, out: Path) -> list[Path]:
     """Fitness/success and connections per generation."""
-    plt = _plt()
+    plt = pyplot()
     rows = run.read_csv("history.csv")
     if not rows:
         raise EvodevoError(f"{str(run / 'history.csv')!r} holds no generation yet")
@@ -88,7 +77,7 @@ def plot_heatmap(run: RunDir, out: Path) -> list[Path]:
     arrays, header = load_arrays(run / "best_genome.npz")
     if "W_r" not in arrays:
         return []
-    plt = _plt()
+    plt = pyplot()
     w = arrays["W_r"]
     lim = float(np.abs(w).max()) or 1.0
     fig, ax = plt.subplots(figsize=(5, 4.3))
@@ -107,7 +96,7 @@ def plot_heatmap(run: RunDir, out: Path) -> list[Path]:
 
 def plot_rolling(run: RunDir, out: Path) -> list[Path]:
     """Rolling success over the test episodes, one figure per evaluation file."""
-    plt = _plt()
+    plt = pyplot()
     paths = []
     for csv_path in sorted(run.path.glob("eval_*_episodes.csv")):
         rows = run.read_csv(csv_path.name)
@@ -135,7 +124,7 @@ def plot_ablations(run: RunDir, out: Path, stem: str = "ablations") -> list[Path
     ``{stem}.png``; the stem of a ``--set`` test: :func:`evodevo.grn.ablations.ablations_stem`)."""
     if not (run / f"{stem}.csv").is_file():
         return []
-    plt = _plt()
+    plt = pyplot()
     rows = [r for r in run.read_csv(f"{stem}.csv") if r["ablation"] != "intact"]
     names = [r["ablation"] for r in rows]
     change = 100 * _col(rows, "change")
@@ -163,7 +152,7 @@ def plot_trace(run: RunDir, out: Path) -> list[Path]:
     x, actions = arrays["x"], arrays["actions"]
     if x.size == 0:
         return []
-    plt = _plt()
+    plt = pyplot()
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
     steps = np.arange(1, x.shape[0] + 1)
     a1.plot(steps, x, lw=0.8, alpha=0.7)
@@ -189,7 +178,7 @@ def plot_modulator_trace(run: RunDir, out: Path) -> list[Path]:
         return []
     arrays, meta = load_arrays(run / MODULATOR_TRACE_FILE, "grn_modulator_trace")
     m, x, actions = arrays["m"], arrays["x"], arrays["actions"]
-    plt = _plt()
+    plt = pyplot()
     fig, (a0, a1, a2) = plt.subplots(3, 1, figsize=(6, 7), sharex=True)
     steps = np.arange(1, m.shape[0] + 1)
     gamma = meta.get("gamma", [float("nan")] * 4)

@@ -13,14 +13,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from evodevo.neuromod.config import MODULE_NAMES  # noqa: E402
-from evodevo.runs import RunDir  # noqa: E402
+from evodevo.neuromod.config import MODULE_NAMES
+from evodevo.plotting import pyplot
+from evodevo.runs import RunDir
 
 __all__ = ["draw_all", "learning_curves", "ablation_bars", "neuromod_dynamics"]
 
@@ -43,6 +40,7 @@ def learning_curves(
     root: Path, runs: dict[str, dict[int, dict[str, Any]]], window: int = 20
 ) -> str:
     """Fig. 3.3 from every run's ``metrics.csv``."""
+    plt = pyplot()
     envs = [t["env_id"] for t in next(iter(next(iter(runs.values())).values()))["tasks"]]
     variants = [v for v in _ORDER if v in runs] + [v for v in runs if v not in _ORDER]
     width = 4.2 * len(envs)
@@ -98,6 +96,7 @@ def learning_curves(
 
 def ablation_bars(root: Path, runs: dict[str, dict[int, dict[str, Any]]]) -> str:
     """Fig. 3.4: final return per task and variant (mean ± std over seeds)."""
+    plt = pyplot()
     variants = [v for v in _ORDER if v in runs]
     envs = [t["env_id"] for t in next(iter(next(iter(runs.values())).values()))["tasks"]]
     fig, axes = plt.subplots(1, len(envs), figsize=(3.6 * len(envs), 3.4), squeeze=False)
@@ -126,6 +125,7 @@ def ablation_bars(root: Path, runs: dict[str, dict[int, dict[str, Any]]]) -> str
 
 def neuromod_dynamics(run_dir: Path, out: Path, label: str = "") -> list[str]:
     """Fig. 3.5 for one run: per task states, learning rate, context gate, correlations."""
+    plt = pyplot()
     run = RunDir(run_dir, create=False)
     rows = run.read_csv("neuromod.csv")
     envs = [t["env_id"] for t in run.read_summary()["tasks"]]

@@ -39,7 +39,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from cma.utilities.utils import ElapsedWCTime
 
 from evodevo.errors import CheckpointError
 
@@ -293,4 +292,6 @@ def restore_state(es: Any, tree: Any, arrays: Mapping[str, np.ndarray]) -> None:
         )
     _restore_into(es, tree.get("attrs"), arrays, {}, "es")
     if "timer" not in vars(es):  # made by the first ask; wall-clock bookkeeping, not state
+        from cma.utilities.utils import ElapsedWCTime  # cma is imported on use (cmaes._cma)
+
         es.timer = ElapsedWCTime()

@@ -40,7 +40,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import cma
 import numpy as np
 
 from evodevo.errors import CheckpointError, EvodevoError
@@ -53,6 +52,14 @@ __all__ = ["CmaEsOptimizer", "TEMPLATE_PREFIX"]
 
 TEMPLATE_PREFIX = "template__"
 """Checkpoint arrays of the template genome (the non-evolving entries and the initial mean)."""
+
+
+def _cma() -> Any:
+    """The ``cma`` module, imported on first use: it imports scipy.stats (0.4 s), which every
+    evodevo process (CLI call, worker) would pay otherwise, CMA-ES run or not."""
+    import cma
+
+    return cma
 
 
 class CmaEsOptimizer:
@@ -96,7 +103,7 @@ class CmaEsOptimizer:
             "verb_log": 0,
         }
         mean = self.space.encode(self._template())
-        return cma.CMAEvolutionStrategy(mean, float(c.sigma0), opts)
+        return _cma().CMAEvolutionStrategy(mean, float(c.sigma0), opts)
 
     def _template(self) -> Any:
         return self.controller.genome_from_arrays(
@@ -154,7 +161,7 @@ class CmaEsOptimizer:
         meta = {
             "rng_state": self.rng.bit_generator.state,
             "cmaes": {
-                "cma_version": cma.__version__,
+                "cma_version": _cma().__version__,
                 "dim": self.space.dim,
                 "blocks": self.space.names(),
                 "tree": tree,
@@ -177,10 +184,10 @@ class CmaEsOptimizer:
                 "the checkpoint holds no CMA-ES state (it was written with evolution.optimizer: "
                 "ga); resume it with the optimizer it was started with"
             )
-        if info.get("cma_version") != cma.__version__:
+        if info.get("cma_version") != _cma().__version__:
             raise CheckpointError(
                 f"the CMA-ES state was written with cma {info.get('cma_version')!r}; this "
-                f"environment has cma {cma.__version__}. Resume with that cma version "
+                f"environment has cma {_cma().__version__}. Resume with that cma version "
                 "(pip install cma==VERSION) or start a new run"
             )
         template = {
