@@ -167,10 +167,7 @@ HEAVY_ON_USE = ("rliable", "matplotlib", "cma", "scipy.stats", "pandas")
     ],
 )
 def test_importing_a_module_leaves_the_heavy_libraries_for_later(module: str):
-    code = (
-        f"import sys, {module}; "
-        f"print(sorted(m for m in {HEAVY_ON_USE!r} if m in sys.modules))"
-    )
+    code = f"import sys, {module}; print(sorted(m for m in {HEAVY_ON_USE!r} if m in sys.modules))"
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
     ).stdout.strip()
