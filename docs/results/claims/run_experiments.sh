@@ -111,6 +111,14 @@ g5() {  # the neuromodulated GRN of SPEC §5 beside G1's plain one
   done
 }
 
+g6() {  # CMA-ES beside G1's GA runs (the GRN arm), same preset, budget and return rule
+  local src; src=$(code_at 3b679d4)
+  for seed in 0 1 2 3 4 5; do
+    grn_arm "$src" grn "$seed" --keep validated
+    grn_arm "$src" cmaes "$seed" --keep validated --optimizer cmaes
+  done
+}
+
 e4() {  # learned module networks beside E1's fixed ones
   local src; src=$(code_at 7dac07f)
   for s in 0-1 2-3 4-5 6-7; do
@@ -180,7 +188,7 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
   done
 }
 
-for e in "${@:-E1 E3A G1 G4 G3 G5 E2 E4 G2 E5 E3B}"; do
+for e in "${@:-E1 E3A G1 G4 G3 G6 G5 E2 E4 G2 E5 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     "${x,,}"
