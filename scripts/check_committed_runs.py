@@ -59,9 +59,8 @@ def _kind(folder: Path) -> str | None:
 PRE_CACHE = {"env": {"kwargs": {"scene_cache": False}}}
 
 
-def _replay(folder: Path, rows: list[dict[str, str]], overrides: Any = None) -> list[str]:
-    """Replay the saved episodes ``rows``; the differences from what was saved."""
-    loaded = load_run(folder, overrides=overrides)
+def _replay(loaded: Any, rows: list[dict[str, str]]) -> list[str]:
+    """Replay the saved episodes ``rows`` with a loaded run; the differences from what was saved."""
     eps = [
         Episode(int(r["seed"]), noisy=False, test_objects=r["test_objects"] == "1") for r in rows
     ]
@@ -80,7 +79,7 @@ def check_grn(folder: Path, episodes: int, notes: list[str]) -> list[str]:
     """Load a GRN or baseline run and replay the first saved test episodes; a test that only
     the environment before the settled-scene cache reproduces is a note, not a failure."""
     problems: list[str] = []
-    load_run(folder)
+    loaded = load_run(folder)
     evodevo.load(folder)
     for path in sorted(folder.glob("eval_*_episodes.csv")):
         m = EVAL_FILE.match(path.name)
@@ -90,8 +89,8 @@ def check_grn(folder: Path, episodes: int, notes: list[str]) -> list[str]:
             rows = [r for r in csv.DictReader(fh) if r["policy"] == "genome"][:episodes]
         if not rows:
             continue
-        diffs = _replay(folder, rows)
-        if diffs and not _replay(folder, rows, PRE_CACHE):
+        diffs = _replay(loaded, rows)
+        if diffs and not _replay(load_run(folder, overrides=PRE_CACHE), rows):
             notes.append(
                 f"{path}: saved before the settled-scene cache (replays exactly with "
                 "--set env.kwargs.scene_cache=false)"

@@ -111,8 +111,9 @@ def runs_needed(
     if not delta > 0:
         raise ValueError(f"delta={delta} must be > 0")
     m, s = abs(float(mean_diff)), float(std_diff)
-    z_c = NormalDist().inv_cdf((1 + level) / 2)
-    z_ab = NormalDist().inv_cdf(1 - alpha / (2 * family_size)) + NormalDist().inv_cdf(power)
+    z = NormalDist()  # the standard normal's quantiles
+    z_c = z.inv_cdf((1 + level) / 2)
+    z_ab = z.inv_cdf(1 - alpha / (2 * family_size)) + z.inv_cdf(power)
     routes: list[int] = []
     if m < delta:
         routes.append(math.floor((z_c * s / (delta - m)) ** 2) + 1)
