@@ -64,3 +64,26 @@ def biarm(
     """
     md = write_continual_table(list(run_dirs), out)
     typer.echo(md.read_text().rstrip())
+
+
+@app.command()
+def experiment(
+    spec: Path = typer.Argument(
+        ..., help="YAML registration of the experiment (e.g. docs/results/claims/g1.yaml)."
+    ),
+    out: Path | None = typer.Option(
+        None, "--out", help="Folder for the tables (default: <root>/<name>)."
+    ),
+) -> None:
+    """Decide a pre-registered success-rate experiment from its runs' test files (SPEC §6).
+
+    Reads each arm's result file per registered seed (missing runs are skipped), compares
+    the arms paired by seed (exact sign-flip test, bootstrap interval, Holm over the decision,
+    margin δ) and writes table.md, comparisons.csv, runs.csv and runs.png. The claim reads
+    "pending" until every arm of the decision has all its registered runs.
+    """
+    from evodevo.evidence.experiment import write_experiment
+
+    md = write_experiment(spec, out)
+    typer.echo(md.read_text().rstrip())
+    typer.echo(f"wrote {md.parent}")

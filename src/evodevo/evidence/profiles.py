@@ -22,7 +22,7 @@ from evodevo.evidence.aggregate import Profiles
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["plot_performance_profiles", "plot_interval_estimates"]
+__all__ = ["plot_performance_profiles", "plot_interval_estimates", "plot_run_scores"]
 
 _COLORS = tuple(f"C{i}" for i in range(10))
 
@@ -118,5 +118,51 @@ def plot_interval_estimates(
         for side in ("top", "right", "left"):
             ax.spines[side].set_visible(False)
     axes[0].set_yticks(range(len(names)), names)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_run_scores(
+    scores: Mapping[str, Mapping[int, float]],
+    means: Mapping[str, tuple[float, float, float]],
+    path: str | Path,
+    ylabel: str = "score",
+    title: str | None = None,
+    target: float | None = None,
+) -> Path:
+    """Each arm's runs as dots (one per run) beside the mean over runs and its interval;
+    saved to ``path`` (returned). The training run is the unit (SPEC §6), so every run is shown.
+
+    Args:
+        scores: Per arm, the score of each run by its seed.
+        means: Per arm, ``(mean, low, high)`` over its runs (arms without runs are skipped).
+        path: File to write.
+        ylabel: Label of the y axis.
+        title: Optional title.
+        target: A goal drawn as a dashed line (or none).
+    """
+    from matplotlib.figure import Figure  # imported on use, as above
+
+    names = list(scores)
+    colors = _colors(names)
+    fig = Figure(figsize=(1.2 + 1.3 * max(len(names), 2), 4.2))
+    ax = fig.subplots()
+    for i, n in enumerate(names):
+        runs = scores[n]
+        xs = i - 0.12 + 0.24 * np.linspace(0, 1, max(len(runs), 1))[: len(runs)]
+        ax.scatter(xs, list(runs.values()), s=18, color=colors[n], alpha=0.8, zorder=3)
+        if n in means:
+            m, lo, hi = means[n]
+            ax.errorbar(i + 0.25, m, yerr=[[m - lo], [hi - m]], fmt="s", color="k", ms=5, capsize=4)
+    if target is not None:
+        ax.axhline(target, ls="--", color="0.4", lw=1)
+    ax.set_xticks(range(len(names)), names)
+    ax.set_xlim(-0.6, len(names) - 0.4)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, axis="y", alpha=0.25)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+    if title:
+        ax.set_title(title, fontsize="medium")
     fig.tight_layout()
     return _save(fig, path)

@@ -1,0 +1,156 @@
+"""Pre-registered success-rate experiments decided from run files (evidence.experiment, SPEC §6)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from evodevo.cli import app
+from evodevo.errors import ConfigError, EvodevoError
+from evodevo.evidence.experiment import decide_experiment, load_experiment, write_experiment
+
+CLAIMS = Path(__file__).resolve().parents[1] / "docs" / "results" / "claims"
+
+
+def _result(path: Path, successes: int, episodes: int = 200, seed: int = 1000000, **extra) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {"successes": successes, "episodes": episodes, "objects": "test", "test_seed": seed}
+    path.write_text(json.dumps({**data, **extra}))
+
+
+def _spec(tmp: Path, **over) -> Path:
+    spec = {
+        "name": "T1",
+        "title": "a test experiment",
+        "root": "runs",
+        "seeds": "0-7",
+        "delta": 5,
+        "arms": {"a": "a_s{seed}/r.json", "b": "b_s{seed}/r.json"},
+        "decision": ["a - b"],
+        "claim": "higher",
+        "reps": 500,
+        **over,
+    }
+    p = tmp / "t1.yaml"
+    import yaml
+
+    p.write_text(yaml.safe_dump(spec))
+    return p
+
+
+def _fill(tmp: Path, a: list[int], b: list[int]) -> None:
+    for s, k in enumerate(a):
+        _result(tmp / "runs" / f"a_s{s}" / "r.json", k)
+    for s, k in enumerate(b):
+        _result(tmp / "runs" / f"b_s{s}" / "r.json", k)
+
+
+def test_higher_supported_when_every_run_is_well_above(tmp_path: Path) -> None:
+    _fill(tmp_path, [160, 150, 170, 155, 165, 158, 162, 168], [100, 104, 98, 110, 96, 102, 99, 101])
+    res = decide_experiment(*load_experiment(_spec(tmp_path)))
+    assert res.complete and res.reading == "supported"
+    c = res.decision[0]
+    assert c.n == 8 and c.mean_diff == pytest.approx(100 * (1288 - 810) / 8 / 200)
+    assert c.p == pytest.approx(2 / 256)  # every sign agrees: the exact sign-flip test's floor
+
+
+def test_higher_refuted_when_equivalent_within_delta(tmp_path: Path) -> None:
+    _fill(tmp_path, [100, 101, 99, 100, 102, 98, 100, 101], [100, 100, 100, 100, 101, 99, 100, 100])
+    res = decide_experiment(*load_experiment(_spec(tmp_path)))
+    assert res.decision[0].verdict == "equivalent within δ"
+    assert res.reading == "refuted"
+
+
+def test_equivalent_claim_refuted_by_a_large_drop(tmp_path: Path) -> None:
+    _fill(tmp_path, [60, 50, 70, 55, 65, 58, 62, 68], [140, 150, 145, 155, 160, 150, 149, 151])
+    res = decide_experiment(*load_experiment(_spec(tmp_path, claim="equivalent")))
+    assert res.decision[0].verdict == "different" and res.reading == "refuted"
+
+
+def test_missing_runs_read_pending_with_the_numbers_so_far(tmp_path: Path) -> None:
+    _fill(tmp_path, [160, 150, 170], [100, 104, 98])
+    res = decide_experiment(*load_experiment(_spec(tmp_path)))
+    assert not res.complete
+    assert res.reading.startswith("pending (3 of 8 runs")
+    assert res.decision[0].n == 3
+
+
+def test_part_reads_the_clean_half_of_a_noisy_test(tmp_path: Path) -> None:
+    for s in range(8):
+        _result(tmp_path / "runs" / f"g_s{s}" / "n.json", 100 + s, clean={"successes": 100})
+    spec = _spec(
+        tmp_path,
+        arms={"noisy": "g_s{seed}/n.json", "clean": "g_s{seed}/n.json#clean"},
+        decision=["noisy - clean"],
+        claim="equivalent",
+    )
+    res = decide_experiment(*load_experiment(spec))
+    assert res.decision[0].mean_diff == pytest.approx(100 * 3.5 / 200)
+
+
+def test_write_experiment_writes_tables_and_figure(tmp_path: Path) -> None:
+    _fill(tmp_path, [160, 150, 170, 155, 165, 158, 162, 168], [100, 104, 98, 110, 96, 102, 99, 101])
+    md = write_experiment(_spec(tmp_path, target=70, beside=["b - a"]))
+    assert md == tmp_path / "runs" / "t1" / "table.md"
+    text = md.read_text()
+    assert "**Reading (claim: higher): supported.**" in text and "locked test range" in text
+    assert "| a | 8 | 0,1,2,3,4,5,6,7 |" in text and "pooled ≥ 70 %" in text
+    for f in ("comparisons.csv", "runs.csv", "runs.png"):
+        assert (md.parent / f).stat().st_size > 0
+    assert len((md.parent / "runs.csv").read_text().splitlines()) == 17
+
+
+def test_runs_tested_on_different_episodes_are_refused(tmp_path: Path) -> None:
+    _fill(tmp_path, [160] * 8, [100] * 7)
+    _result(tmp_path / "runs" / "b_s7" / "r.json", 100, seed=10000)
+    with pytest.raises(EvodevoError, match="different episodes"):
+        decide_experiment(*load_experiment(_spec(tmp_path)))
+
+
+def test_corrupt_result_file_names_the_file(tmp_path: Path) -> None:
+    _fill(tmp_path, [160] * 8, [100] * 8)
+    (tmp_path / "runs" / "b_s3" / "r.json").write_text("{not json")
+    with pytest.raises(EvodevoError, match="b_s3/r.json"):
+        decide_experiment(*load_experiment(_spec(tmp_path)))
+
+
+@pytest.mark.parametrize(
+    ("over", "match"),
+    [
+        ({"decision": ["a - c"]}, "names arm 'c'"),
+        ({"decision": ["a minus b"]}, "is not a comparison"),
+        ({"arms": {"a": "a.json", "b": "b_s{seed}.json"}}, "has no {seed}"),
+        ({"colour": "red"}, "unknown config key colour"),
+        ({"claim": "better"}, "not accepted"),
+        ({"delta": 0}, "must be > 0"),
+        ({"seeds": "x-y"}, "not a seed list"),
+    ],
+)
+def test_bad_specs_give_one_clear_error(tmp_path: Path, over: dict, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        load_experiment(_spec(tmp_path, **over))
+
+
+def test_no_result_yet_is_an_error_not_an_empty_table(tmp_path: Path) -> None:
+    with pytest.raises(EvodevoError, match="no result file of T1"):
+        decide_experiment(*load_experiment(_spec(tmp_path)))
+
+
+@pytest.mark.parametrize("spec", sorted(CLAIMS.glob("g*.yaml")), ids=lambda p: p.name)
+def test_registered_specs_load(spec: Path) -> None:
+    loaded, root = load_experiment(spec)
+    assert loaded.name.lower() == spec.stem
+    assert root.parent == CLAIMS
+
+
+def test_cli_compare_experiment(tmp_path: Path) -> None:
+    _fill(tmp_path, [160] * 8, [100] * 8)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        app, ["compare", "experiment", str(_spec(tmp_path)), "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    assert "The decision" in res.output and (out / "table.md").is_file()
