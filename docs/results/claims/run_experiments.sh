@@ -20,6 +20,10 @@ done_run() {  # a finished run: summary.json without "done": false (grn evolve w
 p = Path(sys.argv[1]) / "summary.json"; sys.exit(0 if p.is_file() and finished(p) else 1)' "$1"
 }
 
+decide() {  # decide g1: the experiment's tables from its runs so far (analysis: this checkout's code)
+  "$py" -m evodevo compare experiment "$out/$1.yaml" > /dev/null || echo "decide $1: no table yet"
+}
+
 compare() {  # compare SRC ARGS...: biarm compare with the code of SRC
   local src=$1; shift
   PYTHONPATH="$src" nice -n 10 "$py" -m evodevo biarm compare --workers 2 --quiet "$@"
@@ -69,6 +73,7 @@ g1() {
     grn_arm "$src" linear "$seed" --keep validated --controller linear
     grn_arm "$src" mlp "$seed" --keep validated --controller mlp
   done
+  decide g1
 }
 
 g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
@@ -87,6 +92,7 @@ g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
       locked_test "$src" "$run"
     done
   done
+  decide g3
 }
 
 g4() {  # G1's GRN runs tested with noise on the visual features (SPEC §2.5), locked range
@@ -101,6 +107,7 @@ g4() {  # G1's GRN runs tested with noise on the visual features (SPEC §2.5), l
       mv "$run/test_locked_noisy.json.part" "$run/test_locked_noisy.json"
     fi
   done
+  decide g4
 }
 
 g5() {  # the neuromodulated GRN of SPEC §5 beside G1's plain one
@@ -109,6 +116,7 @@ g5() {  # the neuromodulated GRN of SPEC §5 beside G1's plain one
     grn_arm "$src" grn "$seed" --keep validated
     grn_arm "$src" neuromod "$seed" --keep validated --controller neuromodulated
   done
+  decide g5
 }
 
 g6() {  # CMA-ES beside G1's GA runs (the GRN arm), same preset, budget and return rule
@@ -117,6 +125,7 @@ g6() {  # CMA-ES beside G1's GA runs (the GRN arm), same preset, budget and retu
     grn_arm "$src" grn "$seed" --keep validated
     grn_arm "$src" cmaes "$seed" --keep validated --optimizer cmaes
   done
+  decide g6
 }
 
 e4() {  # learned module networks beside E1's fixed ones
@@ -144,6 +153,7 @@ g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step 
       locked_test "$src" "$run"
     done
   done
+  decide g2
 }
 
 mem_arm() {  # mem_arm SRC ARM SEED ARGS...: evolve on the memory task, then the locked test
