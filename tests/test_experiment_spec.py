@@ -139,11 +139,20 @@ def test_no_result_yet_is_an_error_not_an_empty_table(tmp_path: Path) -> None:
         decide_experiment(*load_experiment(_spec(tmp_path)))
 
 
-@pytest.mark.parametrize("spec", sorted(CLAIMS.glob("g*.yaml")), ids=lambda p: p.name)
+REGISTERED = sorted(CLAIMS.glob("[eg][0-9].yaml"))
+
+
+def test_every_g_experiment_is_transcribed() -> None:
+    assert [p.stem for p in REGISTERED if p.stem.startswith("g")] == [f"g{i}" for i in range(1, 7)]
+
+
+@pytest.mark.parametrize("spec", REGISTERED, ids=lambda p: p.name)
 def test_registered_specs_load(spec: Path) -> None:
     loaded, root = load_experiment(spec)
     assert loaded.name.lower() == spec.stem
-    assert root.parent == CLAIMS
+    assert root.resolve().is_relative_to(CLAIMS)
+    for arm in loaded.arms.values():
+        assert "test_locked" in arm or "summary.json#tasks" in arm  # locked range only
 
 
 def test_cli_compare_experiment(tmp_path: Path) -> None:
@@ -154,3 +163,101 @@ def test_cli_compare_experiment(tmp_path: Path) -> None:
     )
     assert res.exit_code == 0, res.output
     assert "The decision" in res.output and (out / "table.md").is_file()
+
+
+def _summary(path: Path, lunar: float, seeds: list[int] | None = None) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tasks = [
+        {"env_id": "CartPole-v1", "final_return": 500.0},
+        {"env_id": "LunarLander-v3", "final_return": lunar},
+    ]
+    path.write_text(json.dumps({"tasks": tasks, "eval_seeds": seeds or [1000000, 1000001]}))
+
+
+def test_value_metric_reads_a_task_of_a_biarm_summary(tmp_path: Path) -> None:
+    for s in range(8):
+        _summary(tmp_path / "runs" / f"biarm__s{s}" / "summary.json", 250.0 + s)
+        _summary(tmp_path / "runs" / f"pnn__s{s}" / "summary.json", 150.0 + s)
+    key = "summary.json#tasks[env_id=LunarLander-v3].final_return"
+    spec = _spec(
+        tmp_path,
+        metric="value",
+        delta=None,
+        delta_task="LunarLander-v3",
+        test_key="eval_seeds",
+        arms={"biarm": "biarm__s{seed}/" + key, "pnn": "pnn__s{seed}/" + key},
+        decision=["biarm - pnn"],
+    )
+    loaded, root = load_experiment(spec)
+    assert loaded.margin == pytest.approx(39.25, abs=0.01)  # 10 % of random -> solved
+    res = decide_experiment(loaded, root)
+    assert res.decision[0].mean_diff == pytest.approx(100.0)
+    assert res.reading == "supported"
+    md = write_experiment(spec)
+    assert "return, LunarLander-v3" in md.read_text() and "eval_seeds" in md.read_text()
+    assert (md.parent / "runs.csv").read_text().startswith("arm,seed,value")
+
+
+def test_value_metric_refuses_runs_evaluated_on_other_seeds(tmp_path: Path) -> None:
+    for s in range(8):
+        _summary(tmp_path / "runs" / f"a_s{s}" / "r.json", 1.0, [1000000] if s else [10000])
+        _summary(tmp_path / "runs" / f"b_s{s}" / "r.json", 1.0, [1000000])
+    spec = _spec(
+        tmp_path,
+        metric="value",
+        delta=1.0,
+        test_key="eval_seeds",
+        arms={
+            "a": "a_s{seed}/r.json#tasks[1].final_return",
+            "b": "b_s{seed}/r.json#tasks[1].final_return",
+        },
+    )
+    with pytest.raises(EvodevoError, match="different episodes"):
+        decide_experiment(*load_experiment(spec))
+
+
+def test_value_metric_needs_a_margin_and_a_key(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="needs delta or delta_task"):
+        load_experiment(
+            _spec(tmp_path, metric="value", delta=None, arms={"a": "a{seed}#x", "b": "b{seed}#x"})
+        )
+    with pytest.raises(ConfigError, match="names no value"):
+        load_experiment(_spec(tmp_path, metric="value"))
+
+
+def test_a_missing_key_names_the_file(tmp_path: Path) -> None:
+    for s in range(8):
+        _summary(tmp_path / "runs" / f"a_s{s}" / "r.json", 1.0)
+        _summary(tmp_path / "runs" / f"b_s{s}" / "r.json", 1.0)
+    spec = _spec(
+        tmp_path,
+        metric="value",
+        arms={
+            "a": "a_s{seed}/r.json#tasks[env_id=Foo].final_return",
+            "b": "b_s{seed}/r.json#tasks[0].x",
+        },
+    )
+    with pytest.raises(EvodevoError, match=r"a_s0/r.json.*0 items of tasks have env_id = Foo"):
+        decide_experiment(*load_experiment(spec))
+
+
+def test_claim_read_on_a_subset_of_the_decision(tmp_path: Path) -> None:
+    for s in range(8):
+        _result(tmp_path / "runs" / f"a_s{s}" / "r.json", 160 + s)
+        _result(tmp_path / "runs" / f"b_s{s}" / "r.json", 100 + s % 2)
+        _result(tmp_path / "runs" / f"c_s{s}" / "r.json", 160 + s)
+    arms = {"a": "a_s{seed}/r.json", "b": "b_s{seed}/r.json", "c": "c_s{seed}/r.json"}
+    both = _spec(tmp_path, arms=arms, decision=["a - b", "a - c"])
+    assert decide_experiment(*load_experiment(both)).reading == "refuted"  # a ties c
+    on_b = _spec(tmp_path, arms=arms, decision=["a - b", "a - c"], claim_on=["a - b"])
+    assert decide_experiment(*load_experiment(on_b)).reading == "supported"
+    with pytest.raises(ConfigError, match="not one of the decision"):
+        load_experiment(_spec(tmp_path, arms=arms, decision=["a - b"], claim_on=["a - c"]))
+
+
+def test_higher_by_delta_needs_the_mean_above_delta(tmp_path: Path) -> None:
+    _fill(tmp_path, [108 + s % 2 for s in range(8)], [100] * 8)  # +4.25 points, all above
+    res = decide_experiment(*load_experiment(_spec(tmp_path)))
+    assert res.decision[0].verdict == "different" and res.reading == "supported"
+    res = decide_experiment(*load_experiment(_spec(tmp_path, claim="higher_by_delta")))
+    assert res.reading == "inconclusive"

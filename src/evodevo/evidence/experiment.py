@@ -1,4 +1,4 @@
-"""A pre-registered success-rate experiment, decided from its runs' test files (SPEC §6).
+"""A pre-registered experiment, decided from its runs' result files (SPEC §6).
 
 The Kuka experiments of ``docs/results/claims.md`` (G1-G6) each compare a few arms, trained
 with run seeds ``0..n-1``, by their success on the same locked-range test episodes. Their
@@ -21,11 +21,22 @@ The spec, e.g. ``docs/results/claims/g1.yaml``::
     beside: [grn - mlp]                     # reported, each alone, outside the decision
     claim: higher               # what "supported" means (below)
 
-A result file is what ``grn evaluate`` / ``baselines evaluate`` write with ``--json``
+With ``metric: success`` (the default), a result file is what ``grn evaluate`` /
+``baselines evaluate`` write with ``--json``
 (``successes``, ``episodes``, ``test_seed``, ``objects``); ``file.json#clean`` reads its
 ``clean`` part (the noise-free test of a noisy evaluation). A run's score is
 ``100 × successes / episodes``. Every file of an experiment must come from the same test
 episodes (objects, first seed, count), or the experiment refuses.
+
+With ``metric: value`` each arm names a number inside a JSON file by a key path
+(:func:`lookup`), e.g. a BIARM run's final return on one task, and δ is given as ``delta`` or
+as ``delta_task`` (the task's return margin, :func:`evodevo.evidence.normalise.return_margin`)::
+
+    metric: value
+    delta_task: LunarLander-v3
+    test_key: eval_seeds        # every run must have been tested on the same seeds
+    arms:
+      biarm: v1/runs/biarm__s{seed}/summary.json#tasks[env_id=LunarLander-v3].final_return
 
 Each comparison ``a - b`` is paired by seed (:func:`evodevo.evidence.verdict.compare`: exact
 sign-flip test, bootstrap interval of the mean difference, δ), Holm-corrected over
@@ -33,6 +44,8 @@ sign-flip test, bootstrap interval of the mean difference, δ), Holm-corrected o
 
 * ``higher`` — **supported** when every comparison is "different" with ``a`` higher;
   **refuted** when any is "equivalent within δ" or "different" with ``b`` higher;
+* ``higher_by_delta`` — as ``higher``, but supported only when every mean difference is also
+  larger than δ (the registrations that say "above ... by more than δ");
 * ``equivalent`` — **supported** when every comparison is "equivalent within δ"; **refuted**
   when any is "different" with ``|mean difference| > δ``;
 * otherwise **inconclusive**. Until every arm of a comparison has all its registered runs the
@@ -45,6 +58,7 @@ import csv
 import functools
 import io
 import json
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,6 +69,7 @@ import numpy as np
 from evodevo.config import doc, from_dict, read_yaml
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.evidence.aggregate import AGGREGATES, DEFAULT_REPS, interval_estimates
+from evodevo.evidence.normalise import SUCCESS_RATE_MARGIN
 from evodevo.evidence.verdict import (
     DIFFERENT,
     EQUIVALENT,
@@ -77,22 +92,38 @@ __all__ = [
     "write_experiment",
 ]
 
-Claim = Literal["higher", "equivalent", "none"]
+Claim = Literal["higher", "higher_by_delta", "equivalent", "none"]
 
 
 @dataclass
 class ExperimentSpec:
-    """The registration of one success-rate experiment (module docstring; SPEC §6)."""
+    """The registration of one experiment (module docstring; SPEC §6)."""
 
     name: str = doc("", "Short name, as in claims.md (G1).")
     title: str = doc("", "The question the experiment answers.")
     root: str = doc(".", "Folder of the runs, relative to the spec file.")
     seeds: str = doc("", "Registered run seeds of every arm (e.g. 0-7).")
-    delta: float = doc(5.0, "Equivalence margin δ in success points, fixed before the runs.")
-    arms: dict[str, str] = doc({}, "Arm name -> result file of seed {seed} (optionally #part).")
+    metric: Literal["success", "value"] = doc(
+        "success", "success: 100 x successes / episodes of each file; value: a number in it."
+    )
+    delta: float | None = doc(
+        None, "Equivalence margin δ in the metric's units (success: default 5 points)."
+    )
+    delta_task: str | None = doc(
+        None, "Instead of delta: the return margin of this task (evidence.normalise)."
+    )
+    test_key: str | None = doc(
+        None, "value metric: a key path whose value every file must share (e.g. eval_seeds)."
+    )
+    arms: dict[str, str] = doc({}, "Arm name -> result file of seed {seed} (optionally #path).")
     decision: list[str] = doc([], "Comparisons 'a - b' that decide, Holm-corrected together.")
     beside: list[str] = doc([], "Comparisons reported outside the decision, each alone.")
-    claim: Claim = doc("higher", "What the decision supports: a higher, or a within δ of b.")
+    claim_on: list[str] = doc(
+        [], "The decision's comparisons the claim is read from (default: all of them)."
+    )
+    claim: Claim = doc(
+        "higher", "What the decision supports: a higher (by more than δ), or a within δ of b."
+    )
     target: float | None = doc(None, "A goal for an arm's pooled success, in points (or none).")
     reps: int = doc(DEFAULT_REPS, "Bootstrap resamples of every interval.")
 
@@ -109,17 +140,50 @@ class ExperimentSpec:
                 )
         if not self.decision:
             raise ConfigError("decision: name at least one comparison 'a - b'")
-        for key in ("decision", "beside"):
+        for key in ("decision", "beside", "claim_on"):
             for item in getattr(self, key):
                 self.pair(item, key)
-        if not self.delta > 0:
-            raise ConfigError(f"delta: {self.delta} must be > 0 (points of success)")
+        decided = {self.pair(t) for t in self.decision}
+        for item in self.claim_on:
+            if self.pair(item, "claim_on") not in decided:
+                raise ConfigError(f"claim_on: {item!r} is not one of the decision's comparisons")
+        if self.delta is not None and self.delta_task is not None:
+            raise ConfigError("delta and delta_task: give one of them, not both")
+        if self.metric == "value":
+            if self.delta is None and self.delta_task is None:
+                raise ConfigError("delta: a value metric needs delta or delta_task")
+            for arm, template in self.arms.items():
+                if "#" not in template:
+                    raise ConfigError(
+                        f"arms.{arm}: {template!r} names no value; write FILE#key.path, e.g. "
+                        "runs/biarm__s{seed}/summary.json#tasks[env_id=LunarLander-v3].final_return"
+                    )
+        if self.delta is not None and not self.delta > 0:
+            raise ConfigError(f"delta: {self.delta} must be > 0")
         if self.reps < 1:
             raise ConfigError(f"reps: {self.reps} must be >= 1")
         try:
             parse_seeds(self.seeds, "seeds")
         except EvodevoError as exc:
             raise ConfigError(str(exc)) from None
+
+    @property
+    def margin(self) -> float:
+        """δ in the metric's units: ``delta``, the return margin of ``delta_task``, or 5 points."""
+        if self.delta is not None:
+            return float(self.delta)
+        if self.delta_task is not None:
+            from evodevo.evidence.normalise import return_margin, task_scale
+
+            return float(return_margin(task_scale(self.delta_task)))
+        return 100 * SUCCESS_RATE_MARGIN
+
+    @property
+    def unit(self) -> str:
+        """What the scores are, for the tables."""
+        if self.metric == "success":
+            return "success, points"
+        return f"return, {self.delta_task}" if self.delta_task else "value"
 
     def pair(self, text: str, key: str = "decision") -> tuple[str, str]:
         """The arms ``(a, b)`` of comparison ``'a - b'``; an error naming the key otherwise."""
@@ -144,47 +208,103 @@ def load_experiment(path: str | Path) -> tuple[ExperimentSpec, Path]:
 
 @dataclass
 class ArmScores:
-    """The tested runs of one arm: per seed its successes of ``episodes`` test episodes."""
+    """The runs of one arm found so far: per seed its score (and, for the success metric, its
+    successes of ``episodes`` test episodes)."""
 
     name: str
     seeds: list[int] = field(default_factory=list)
+    values: list[float] = field(default_factory=list)
     successes: list[int] = field(default_factory=list)
     episodes: list[int] = field(default_factory=list)
 
     def score(self, seed: int) -> float:
-        """Success in points of the run of ``seed``."""
-        i = self.seeds.index(seed)
-        return 100.0 * self.successes[i] / self.episodes[i]
+        """The score of the run of ``seed`` (success in points, or the value read)."""
+        return self.values[self.seeds.index(seed)]
 
 
-def _read_result(path: Path, part: str | None) -> dict[str, Any]:
+_SELECT = re.compile(r"^(?P<name>[^\[\]]*)(?:\[(?P<sel>[^\]]+)\])?$")
+
+
+def lookup(data: Any, path: str) -> Any:
+    """The value at key path ``path`` of parsed JSON ``data``.
+
+    Segments are separated by dots; ``name[3]`` takes item 3 of a list and
+    ``name[key=value]`` the one item whose ``key`` is ``value``.
+
+    >>> lookup({"tasks": [{"env_id": "A", "r": 1}, {"env_id": "B", "r": 2}]}, "tasks[env_id=B].r")
+    2
+    """
+    cur = data
+    for seg in path.split("."):
+        m = _SELECT.match(seg)
+        if m is None:
+            raise KeyError(f"{seg!r} is not a key ('name', 'name[3]' or 'name[key=value]')")
+        if m["name"]:
+            if not isinstance(cur, dict) or m["name"] not in cur:
+                raise KeyError(f"no key {m['name']!r}")
+            cur = cur[m["name"]]
+        sel = m["sel"]
+        if sel is None:
+            continue
+        if not isinstance(cur, list):
+            raise KeyError(f"{seg!r} selects from {type(cur).__name__}, not a list")
+        if "=" in sel:
+            k, _, v = sel.partition("=")
+            hits = [x for x in cur if isinstance(x, dict) and str(x.get(k)) == v]
+            if len(hits) != 1:
+                raise KeyError(f"{len(hits)} items of {m['name'] or 'the list'} have {k} = {v}")
+            cur = hits[0]
+        else:
+            try:
+                cur = cur[int(sel)]
+            except (ValueError, IndexError):
+                raise KeyError(f"{seg!r}: no item {sel}") from None
+    return cur
+
+
+def _read_json(path: Path) -> Any:
     try:
-        data = json.loads(path.read_text())
+        return json.loads(path.read_text())
     except (OSError, ValueError) as exc:
         raise EvodevoError(
-            f"result file {str(path)!r} cannot be read as JSON ({exc}); rerun its test "
-            "(`evodevo grn evaluate RUN --json > FILE`)"
+            f"result file {str(path)!r} cannot be read as JSON ({exc}); rerun the test or run "
+            "that writes it"
         ) from None
+
+
+def _read_success(path: Path, part: str | None) -> tuple[int, int, tuple[Any, ...]]:
+    """``(successes, episodes, the test's identity)`` of a test result file."""
+    data = _read_json(path)
     if not isinstance(data, dict):
         raise EvodevoError(f"result file {str(path)!r} holds no test result (not a mapping)")
-    src: Any = data.get(part) if part else data
+    try:
+        src: Any = lookup(data, part) if part else data
+    except KeyError:
+        src = None
     if not isinstance(src, dict) or "successes" not in src or "episodes" not in data:
         what = f"a {part!r} part with successes" if part else "successes and episodes"
         raise EvodevoError(f"result file {str(path)!r} has no {what}; is it a test result?")
-    return {
-        "successes": int(src["successes"]),
-        "episodes": int(data["episodes"]),
-        "test": (str(data.get("objects")), int(data.get("test_seed", -1)), int(data["episodes"])),
-    }
+    n = int(data["episodes"])
+    return int(src["successes"]), n, (str(data.get("objects")), int(data.get("test_seed", -1)), n)
 
 
-def read_arms(
-    spec: ExperimentSpec, root: Path
-) -> tuple[dict[str, ArmScores], tuple[str, int, int]]:
-    """Every arm's tested runs among the registered seeds (missing runs are skipped), and the
-    test they share: ``(objects, first test seed, episodes)``."""
+def _read_value(path: Path, key: str, test_key: str | None) -> tuple[float, tuple[Any, ...]]:
+    """``(the number at key, the test's identity)`` of a result file."""
+    data = _read_json(path)
+    try:
+        value = float(lookup(data, key))
+        test = (json.dumps(lookup(data, test_key)),) if test_key else ()
+    except (KeyError, TypeError, ValueError) as exc:
+        raise EvodevoError(f"result file {str(path)!r}: {key!r} gives no number ({exc})") from None
+    return value, test
+
+
+def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], tuple[Any, ...]]:
+    """Every arm's runs among the registered seeds (missing files are skipped) and the identity
+    of the test they share (success: ``(objects, first test seed, episodes)``; value: the
+    ``test_key`` value, or ``()``)."""
     arms: dict[str, ArmScores] = {}
-    tests: dict[tuple[str, int, int], str] = {}
+    tests: dict[tuple[Any, ...], str] = {}
     for name, template in spec.arms.items():
         file, _, part = template.partition("#")
         scores = ArmScores(name)
@@ -192,17 +312,22 @@ def read_arms(
             path = root / file.format(seed=seed)
             if not path.is_file():
                 continue
-            res = _read_result(path, part or None)
+            if spec.metric == "success":
+                k, n, test = _read_success(path, part or None)
+                scores.successes.append(k)
+                scores.episodes.append(n)
+                scores.values.append(100.0 * k / n)
+            else:
+                value, test = _read_value(path, part, spec.test_key)
+                scores.values.append(value)
             scores.seeds.append(seed)
-            scores.successes.append(res["successes"])
-            scores.episodes.append(res["episodes"])
-            tests.setdefault(res["test"], str(path))
+            tests.setdefault(test, str(path))
         arms[name] = scores
     if len(tests) > 1:
         listed = "; ".join(f"{t} in {p}" for t, p in tests.items())
         raise EvodevoError(
             f"the runs of {spec.name} were tested on different episodes ({listed}); test them "
-            "all on the same objects, first seed and number of episodes"
+            "all on the same episodes (objects, first seed and number)"
         )
     if not tests:
         raise EvodevoError(
@@ -217,7 +342,7 @@ class ExperimentResult:
     """What :func:`decide_experiment` finds: arms, comparisons and the claim's reading."""
 
     spec: ExperimentSpec
-    test: tuple[str, int, int]
+    test: tuple[Any, ...]
     arms: dict[str, ArmScores]
     decision: list[Comparison]
     beside: list[Comparison]
@@ -240,7 +365,7 @@ class ExperimentResult:
         )
         rows = []
         for n, a in self.arms.items():
-            pooled = rate(sum(a.successes), sum(a.episodes)) if a.seeds else None
+            pooled = rate(sum(a.successes), sum(a.episodes)) if a.successes else None
             row: dict[str, Any] = {
                 "arm": n,
                 "runs": len(a.seeds),
@@ -270,17 +395,18 @@ def _compare(
         [arms[a].score(s) for s in shared],
         b,
         [arms[b].score(s) for s in shared],
-        delta=spec.delta,
+        delta=spec.margin,
         reps=spec.reps,
-        task="success, points",
+        task=spec.unit,
     )
 
 
 def _reading(claim: Claim, comps: Sequence[Comparison]) -> str:
     if claim == "none":
         return "; ".join(f"{c.a} − {c.b}: {c.verdict}" for c in comps)
-    if claim == "higher":
-        if all(c.verdict == DIFFERENT and c.mean_diff > 0 for c in comps):
+    if claim in ("higher", "higher_by_delta"):
+        floor = 0.0 if claim == "higher" else comps[0].delta
+        if all(c.verdict == DIFFERENT and c.mean_diff > floor for c in comps):
             return "supported"
         if any(
             c.verdict == EQUIVALENT or (c.verdict == DIFFERENT and c.mean_diff < 0) for c in comps
@@ -307,7 +433,8 @@ def decide_experiment(spec: ExperimentSpec, root: Path) -> ExperimentResult:
         len(arms[a].seeds) == n_reg for a in in_decision
     )
     if complete:
-        reading = _reading(spec.claim, decision)
+        on = {spec.pair(t) for t in spec.claim_on}
+        reading = _reading(spec.claim, [c for c in decision if not on or (c.a, c.b) in on])
     else:
         reading = f"pending ({have} of {n_reg} runs in every arm of the decision)"
     return ExperimentResult(spec, test, arms, decision, beside, complete, reading, n_reg)
@@ -324,49 +451,69 @@ def _f(v: float | None, digits: int = 1) -> str:
     return "—" if v is None else f"{v:.{digits}f}"
 
 
+def _test_words(res: ExperimentResult) -> str:
+    if res.spec.metric == "success":
+        objects, first, n = res.test
+        return (
+            f"Test: {n} episodes on {objects} objects, first seed {first} "
+            f"({_range_words(range_label(first, n))})"
+        )
+    if res.spec.test_key:
+        return f"Test: every run's {res.spec.test_key} is {res.test[0]}"
+    return "Test: as each result file records it"
+
+
 def markdown(res: ExperimentResult) -> str:
     """The experiment's tables: arms, the decision, the comparisons beside, and the reading."""
     spec = res.spec
-    objects, first, n = res.test
+    success = spec.metric == "success"
+    units = "points" if success else "(units of the metric)"
     lines = [
         f"# {spec.name}. {spec.title}",
         "",
-        f"Test: {n} episodes on {objects} objects, first seed {first} "
-        f"({_range_words(range_label(first, n))}); registered run seeds {spec.seeds} "
-        f"({res.runs_registered} per arm); δ = {spec.delta:g} points; intervals are 95 % "
-        f"bootstrap intervals over runs ({spec.reps} resamples).",
+        f"{_test_words(res)}; registered run seeds {spec.seeds} ({res.runs_registered} per "
+        f"arm); metric {spec.unit}; δ = {spec.margin:g} {units}; intervals are 95 % bootstrap "
+        f"intervals over runs ({spec.reps} resamples).",
         "",
-        "| arm | runs | seeds | mean success over runs [95 % CI] | pooled successes | pooled "
-        "success [Wilson 95 %] |"
-        + (f" pooled ≥ {spec.target:g} % |" if spec.target is not None else ""),
-        "|---|---:|---|---:|---:|---:|" + ("---|" if spec.target is not None else ""),
     ]
+    target = f" pooled ≥ {spec.target:g} % |" if success and spec.target is not None else ""
+    if success:
+        lines += [
+            "| arm | runs | seeds | mean success over runs [95 % CI] | pooled successes | "
+            "pooled success [Wilson 95 %] |" + target,
+            "|---|---:|---|---:|---:|---:|" + ("---|" if target else ""),
+        ]
+    else:
+        lines += ["| arm | runs | seeds | mean over runs [95 % CI] |", "|---|---:|---|---:|"]
+    digits = 1 if success else 2
     for r in res.arm_rows:
         row = (
-            f"| {r['arm']} | {r['runs']} | {r['seeds'] or '—'} | {_f(r['mean'])} "
-            f"[{_f(r['low'])}, {_f(r['high'])}] | {r['pooled_successes']} / "
-            f"{r['pooled_episodes']} | {_f(r['pooled'])} [{_f(r['pooled_low'])}, "
-            f"{_f(r['pooled_high'])}] |"
+            f"| {r['arm']} | {r['runs']} | {r['seeds'] or '—'} | {_f(r['mean'], digits)} "
+            f"[{_f(r['low'], digits)}, {_f(r['high'], digits)}] |"
         )
-        if spec.target is not None:
+        if success:
             row += (
-                " — |"
-                if r["pooled"] is None
-                else f" {'yes' if r['pooled'] >= spec.target else 'no'} |"
+                f" {r['pooled_successes']} / {r['pooled_episodes']} | {_f(r['pooled'])} "
+                f"[{_f(r['pooled_low'])}, {_f(r['pooled_high'])}] |"
             )
+        if target:
+            reached = r["pooled"] is not None and r["pooled"] >= (spec.target or 0)
+            row += " — |" if r["pooled"] is None else f" {'yes' if reached else 'no'} |"
         lines.append(row)
     lines += [
         "",
         "## The decision",
         "",
-        "Paired by run seed (A − B in success points), exact sign-flip test, Holm over the "
+        f"Paired by run seed (A − B, {spec.unit}), exact sign-flip test, Holm over the "
         f"{len(spec.decision)} comparison(s) below.",
         "",
-        to_markdown(res.decision, digits=1)
+        to_markdown(res.decision, digits=digits)
         if res.decision
         else "(no comparison has 2 paired runs yet)",
         "",
-        f"**Reading (claim: {spec.claim}): {res.reading}.**",
+        f"**Reading (claim: {spec.claim}"
+        + (f", read on {', '.join(spec.claim_on)}" if spec.claim_on else "")
+        + f"): {res.reading}.**",
         "",
     ]
     if spec.beside:
@@ -375,7 +522,7 @@ def markdown(res: ExperimentResult) -> str:
             "",
             "Each comparison alone (no correction; not part of the decision).",
             "",
-            to_markdown(res.beside, digits=1) if res.beside else "(no paired runs yet)",
+            to_markdown(res.beside, digits=digits) if res.beside else "(no paired runs yet)",
             "",
         ]
     return "\n".join(lines)
@@ -409,18 +556,25 @@ def write_experiment(spec_path: str | Path, out: str | Path | None = None) -> Pa
         for c in cs
     ]  # fmt: skip
     atomic_write_text(folder / "comparisons.csv", _csv(comps))
-    runs = [
-        {"arm": a.name, "seed": s, "successes": k, "episodes": n, "success": 100.0 * k / n}
-        for a in res.arms.values()
-        for s, k, n in zip(a.seeds, a.successes, a.episodes, strict=True)
-    ]
+    if spec.metric == "success":
+        runs = [
+            {"arm": a.name, "seed": s, "successes": k, "episodes": n, "success": v}
+            for a in res.arms.values()
+            for s, v, k, n in zip(a.seeds, a.values, a.successes, a.episodes, strict=True)
+        ]
+    else:
+        runs = [
+            {"arm": a.name, "seed": s, "value": v}
+            for a in res.arms.values()
+            for s, v in zip(a.seeds, a.values, strict=True)
+        ]
     atomic_write_text(folder / "runs.csv", _csv(runs))
     plot_run_scores(
         {a.name: {s: a.score(s) for s in a.seeds} for a in res.arms.values()},
         {r["arm"]: (r["mean"], r["low"], r["high"]) for r in res.arm_rows if r["mean"] is not None},
         folder / "runs.png",
-        ylabel="success on the test episodes (%)",
+        ylabel="success on the test episodes (%)" if spec.metric == "success" else spec.unit,
         title=f"{spec.name}: each run (dots) and the mean over runs [95 % CI]",
-        target=spec.target,
+        target=spec.target if spec.metric == "success" else None,
     )
     return md
