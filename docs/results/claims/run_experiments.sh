@@ -86,7 +86,7 @@ g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
       if ! done_run "$run"; then
         local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
         PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
-          --config configs/baselines_kuka_vision.yaml --set keep.rule=validated \
+          --config "${src%/src}/configs/baselines_kuka_vision.yaml" --set keep.rule=validated \
           --budget-from "$out/regulation/grn_s$seed" --workers 2 --quiet "${resume[@]}" --out "$run"
       fi
       locked_test "$src" "$run"
@@ -137,7 +137,7 @@ e4() {  # learned module networks beside E1's fixed ones
 
 g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step budget
   local src; src=$(code_at 66abad3)
-  local base=(--config configs/grn_memory.yaml --keep validated)
+  local base=(--config "${src%/src}/configs/grn_memory.yaml" --keep validated)  # the pinned commit's configs
   for seed in 0 1 2 3 4 5 6 7; do
     mem_arm "$src" carried "$seed" "${base[@]}"
     mem_arm "$src" restarted "$seed" "${base[@]}" --set dynamics.restart=true
@@ -147,7 +147,7 @@ g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step 
       if ! done_run "$run"; then
         local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
         PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
-          --config configs/baselines_kuka_memory.yaml --set keep.rule=validated \
+          --config "${src%/src}/configs/baselines_kuka_memory.yaml" --set keep.rule=validated \
           --budget-from "$out/memory/carried_s$seed" --quiet "${resume[@]}" --out "$run"
       fi
       locked_test "$src" "$run"
