@@ -663,6 +663,12 @@ def test_biarm_compare_report_states_its_budget_once(tmp_path):
     # a table file read on its own still names its budget, once, under the table
     t32 = (tmp_path / "table_3_2.md").read_text()
     assert t32.count("Budget:") == 1 and t32.index("| Environment") < t32.index("Budget:")
+    # E5's decision: biarm against each ablation, every cell under one Holm family (the tiny
+    # grid's MountainCar and LunarLander stop at 500 steps: no δ, so 2 tasks x 4 modules)
+    abl = (tmp_path / "table_ablation_verdicts.md").read_text()
+    assert "Holm over all 8 cells" in abl and abl.count("| biarm − no-") == 8
+    assert "Is every module necessary?" in md and "- `no-ach`: inconclusive" in md
+    assert len((tmp_path / "table_ablation_verdicts.csv").read_text().splitlines()) == 9
 
 
 def test_learning_curve_legend_covers_no_panel(tmp_path):

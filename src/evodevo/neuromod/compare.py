@@ -27,6 +27,12 @@ import numpy as np
 from evodevo.config import from_dict, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.evidence.aggregate import DEFAULT_REPS
+from evodevo.neuromod.ablation_verdicts import (
+    ABLATION_FILE,
+    ABLATION_TITLE,
+    ablation_comparisons,
+    ablation_verdict_markdown,
+)
 from evodevo.neuromod.aggregate_table import AGGREGATE_TITLE, PROFILE_FIGURE, aggregate_markdown
 from evodevo.neuromod.checkpoint import latest_resume_point
 from evodevo.neuromod.config import BiarmConfig
@@ -239,7 +245,8 @@ def continual_markdown(out: str | Path, reps: int = DEFAULT_REPS) -> str:
 
 def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS) -> Path:
     """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_final_verdicts.md/.csv``
-    (each variant against pnn on the final return, with a verdict), ``table_aggregates.md`` (IQM,
+    (each variant against pnn on the final return, with a verdict), with module ablations
+    ``table_ablation_verdicts.md/.csv`` (biarm against each, E5's rule), ``table_aggregates.md`` (IQM,
     probability of improvement, performance profiles), ``table_cl_metrics.md/.csv``
     (with ``table_cl_paired.csv`` and ``table_cl_runs.csv``), ``report.md`` and (optionally)
     the figures into ``out``.
@@ -263,6 +270,13 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
     atomic_write_text(root / f"{FINAL_FILE}.md", f"## {FINAL_TITLE}\n\n{body}\n{budget}\n")
     atomic_write_text(root / f"{FINAL_FILE}.csv", final_verdict_csv(verdicts))
     parts.append(f"## {FINAL_TITLE}\n\n{body}")
+    cells = ablation_comparisons(runs, reps=reps)
+    if cells:
+        body = ablation_verdict_markdown(cells)
+        text = f"## {ABLATION_TITLE}\n\n{body}\n{budget}\n"
+        atomic_write_text(root / f"{ABLATION_FILE}.md", text)
+        atomic_write_text(root / f"{ABLATION_FILE}.csv", final_verdict_csv(cells))
+        parts.append(f"## {ABLATION_TITLE}\n\n{body}")
     agg = aggregate_markdown(runs, root / PROFILE_FIGURE if figures else None, reps=reps)
     atomic_write_text(root / "table_aggregates.md", f"## {AGGREGATE_TITLE}\n\n{agg}\n{budget}\n")
     parts.append(f"## {AGGREGATE_TITLE}\n\n{agg}")
