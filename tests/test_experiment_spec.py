@@ -152,7 +152,8 @@ def test_registered_specs_load(spec: Path) -> None:
     assert loaded.name.lower() == spec.stem
     assert root.resolve().is_relative_to(CLAIMS)
     for arm in loaded.arms.values():
-        assert "test_locked" in arm or "summary.json#tasks" in arm  # locked range only
+        # locked-range tests, BIARM summaries (locked eval seeds) or their per-run scores
+        assert any(k in arm for k in ("test_locked", "summary.json#tasks", "table_run_scores"))
 
 
 def test_cli_compare_experiment(tmp_path: Path) -> None:
@@ -261,3 +262,42 @@ def test_higher_by_delta_needs_the_mean_above_delta(tmp_path: Path) -> None:
     assert res.decision[0].verdict == "different" and res.reading == "supported"
     res = decide_experiment(*load_experiment(_spec(tmp_path, claim="higher_by_delta")))
     assert res.reading == "inconclusive"
+
+
+def test_value_metric_reads_a_cell_of_a_run_scores_table(tmp_path: Path) -> None:
+    rows = ["variant,seed,final_normalised_iqm"]
+    rows += [f"biarm,{s},{0.9 + s / 100}" for s in range(8)]
+    rows += [f"pnn,{s},{0.7 + s / 100}" for s in range(5)]  # seeds 5-7 not run yet
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "table_run_scores.csv").write_text("\n".join(rows) + "\n")
+    col = "table_run_scores.csv#[variant={v},seed={{seed}}].final_normalised_iqm"
+    spec = _spec(
+        tmp_path,
+        metric="value",
+        delta=0.1,
+        arms={"biarm": col.format(v="biarm"), "pnn": col.format(v="pnn")},
+        decision=["biarm - pnn"],
+    )
+    res = decide_experiment(*load_experiment(spec))
+    assert res.arms["pnn"].seeds == [0, 1, 2, 3, 4]
+    assert res.decision[0].mean_diff == pytest.approx(0.2)
+    assert res.reading.startswith("pending (5 of 8 runs")
+
+
+def test_claim_groups_read_once_per_group_under_one_holm_family(tmp_path: Path) -> None:
+    for s in range(8):
+        for arm, k in (("a", 160 + s), ("b", 100), ("c", 100 + s % 2), ("d", 100)):
+            _result(tmp_path / "runs" / f"{arm}_s{s}" / "r.json", k)
+    arms = {x: f"{x}_s{{seed}}/r.json" for x in "abcd"}
+    spec = _spec(
+        tmp_path,
+        arms=arms,
+        decision=["a - b", "c - d"],
+        claim_groups={"first": ["a - b"], "second": ["c - d"]},
+    )
+    res = decide_experiment(*load_experiment(spec))
+    assert res.reading == "first: supported; second: refuted"
+    assert all(c.family_size == 2 for c in res.decision)
+    with pytest.raises(ConfigError, match="not both"):
+        load_experiment(_spec(tmp_path, arms=arms, decision=["a - b"], claim_on=["a - b"],
+                              claim_groups={"g": ["a - b"]}))  # fmt: skip

@@ -24,6 +24,10 @@ decide() {  # decide g1: the experiment's tables from its runs so far (analysis:
   "$py" -m evodevo compare experiment "$out/$1.yaml" > /dev/null || echo "decide $1: no table yet"
 }
 
+report() {  # report DIR...: redraw each biarm compare folder's tables (analysis: this checkout's code)
+  local d; for d in "$@"; do "$py" -m evodevo biarm report "$d" > /dev/null || echo "report $d failed"; done
+}
+
 compare() {  # compare SRC ARGS...: biarm compare with the code of SRC
   local src=$1; shift
   PYTHONPATH="$src" nice -n 10 "$py" -m evodevo biarm compare --workers 2 --quiet "$@"
@@ -34,6 +38,7 @@ e1() {
   for s in 0-1 2-3 4-5 6-7 8-9; do
     compare "$src" --variants pnn,biarm,single --seeds "$s" --out "$out/default"
   done
+  report "$out/default"
 }
 
 e2() {
@@ -43,6 +48,7 @@ e2() {
     compare "$src" --protocol v1 --variants pnn,biarm,clamped --seeds "$s" --out "$out/v1"
     compare "$src" --protocol v1 --variants pnn --set "dqn.per_task=$eta" --seeds "$s" --out "$out/v1_eta"
   done
+  decide e2
 }
 
 e3a() {  # the lateral scale of E3 (selection seeds 100-102; never reported)
@@ -133,6 +139,8 @@ e4() {  # learned module networks beside E1's fixed ones
   for s in 0-1 2-3 4-5 6-7; do
     compare "$src" --variants biarm --set modules.learning=learned --seeds "$s" --out "$out/default_learned"
   done
+  report "$out/default_learned" "$out/default"
+  decide e4
 }
 
 g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step budget
@@ -182,6 +190,7 @@ e5() {  # the module ablations beside E1's runs
   for s in 0-1 2-3 4-5 6-7 8-9; do
     compare "$src" --variants no-da,no-5ht,no-ne,no-ach --seeds "$s" --out "$out/default"
   done
+  report "$out/default"
 }
 
 e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0-5)
@@ -196,6 +205,8 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
         --set "network.lateral_scale=$scale" --seeds "$s" --out "$out/transfer/$order-learned"
     done
   done
+  report "$out"/transfer/*/
+  decide e3
 }
 
 for e in "${@:-E1 E3A G1 G4 G3 G6 G5 E2 E4 G2 E5 E3B}"; do

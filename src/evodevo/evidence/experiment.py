@@ -48,7 +48,9 @@ sign-flip test, bootstrap interval of the mean difference, δ), Holm-corrected o
   larger than δ (the registrations that say "above ... by more than δ");
 * ``equivalent`` — **supported** when every comparison is "equivalent within δ"; **refuted**
   when any is "different" with ``|mean difference| > δ``;
-* otherwise **inconclusive**. Until every arm of a comparison has all its registered runs the
+* otherwise **inconclusive**. ``claim_on`` reads the claim on some of the decision's
+  comparisons only, ``claim_groups`` once per named group of them (the Holm family stays the
+  whole decision). Until every arm of a comparison has all its registered runs the
   reading is **pending (k of n runs)**, with the numbers so far.
 """
 
@@ -121,6 +123,9 @@ class ExperimentSpec:
     claim_on: list[str] = doc(
         [], "The decision's comparisons the claim is read from (default: all of them)."
     )
+    claim_groups: dict[str, list[str]] = doc(
+        {}, "Instead of claim_on: one reading per named group of the decision's comparisons."
+    )
     claim: Claim = doc(
         "higher", "What the decision supports: a higher (by more than δ), or a within δ of b."
     )
@@ -144,9 +149,15 @@ class ExperimentSpec:
             for item in getattr(self, key):
                 self.pair(item, key)
         decided = {self.pair(t) for t in self.decision}
-        for item in self.claim_on:
-            if self.pair(item, "claim_on") not in decided:
-                raise ConfigError(f"claim_on: {item!r} is not one of the decision's comparisons")
+        if self.claim_on and self.claim_groups:
+            raise ConfigError("claim_on and claim_groups: give one of them, not both")
+        groups = {f"claim_groups.{g}": items for g, items in self.claim_groups.items()}
+        for key, items in {"claim_on": self.claim_on, **groups}.items():
+            for item in items:
+                if self.pair(item, key) not in decided:
+                    raise ConfigError(f"{key}: {item!r} is not one of the decision's comparisons")
+            if key != "claim_on" and not items:
+                raise ConfigError(f"{key}: name at least one comparison of the decision")
         if self.delta is not None and self.delta_task is not None:
             raise ConfigError("delta and delta_task: give one of them, not both")
         if self.metric == "value":
@@ -222,6 +233,10 @@ class ArmScores:
         return self.values[self.seeds.index(seed)]
 
 
+class NoItem(KeyError):
+    """A selector ``[key=value]`` matched no item (in a CSV file: that run has no row yet)."""
+
+
 _SELECT = re.compile(r"^(?P<name>[^\[\]]*)(?:\[(?P<sel>[^\]]+)\])?$")
 
 
@@ -229,7 +244,8 @@ def lookup(data: Any, path: str) -> Any:
     """The value at key path ``path`` of parsed JSON ``data``.
 
     Segments are separated by dots; ``name[3]`` takes item 3 of a list and
-    ``name[key=value]`` the one item whose ``key`` is ``value``.
+    ``name[key=value]`` (or ``name[k1=v1,k2=v2]``) the one item whose keys have those values.
+    A CSV file is read as the list of its rows, so ``[variant=biarm,seed=3].column`` is a cell.
 
     >>> lookup({"tasks": [{"env_id": "A", "r": 1}, {"env_id": "B", "r": 2}]}, "tasks[env_id=B].r")
     2
@@ -249,10 +265,14 @@ def lookup(data: Any, path: str) -> Any:
         if not isinstance(cur, list):
             raise KeyError(f"{seg!r} selects from {type(cur).__name__}, not a list")
         if "=" in sel:
-            k, _, v = sel.partition("=")
-            hits = [x for x in cur if isinstance(x, dict) and str(x.get(k)) == v]
+            conds = [c.partition("=")[::2] for c in sel.split(",")]
+            hits = [
+                x for x in cur if isinstance(x, dict) and all(str(x.get(k)) == v for k, v in conds)
+            ]
             if len(hits) != 1:
-                raise KeyError(f"{len(hits)} items of {m['name'] or 'the list'} have {k} = {v}")
+                what = " and ".join(f"{k} = {v}" for k, v in conds)
+                err = NoItem if not hits else KeyError
+                raise err(f"{len(hits)} items of {m['name'] or 'the list'} have {what}")
             cur = hits[0]
         else:
             try:
@@ -263,9 +283,13 @@ def lookup(data: Any, path: str) -> Any:
 
 
 def _read_json(path: Path) -> Any:
+    """The parsed JSON of ``path``; a ``.csv`` file as the list of its rows (dicts of text)."""
     try:
+        if path.suffix == ".csv":
+            with path.open(newline="") as f:
+                return list(csv.DictReader(f))
         return json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, csv.Error) as exc:
         raise EvodevoError(
             f"result file {str(path)!r} cannot be read as JSON ({exc}); rerun the test or run "
             "that writes it"
@@ -288,11 +312,20 @@ def _read_success(path: Path, part: str | None) -> tuple[int, int, tuple[Any, ..
     return int(src["successes"]), n, (str(data.get("objects")), int(data.get("test_seed", -1)), n)
 
 
-def _read_value(path: Path, key: str, test_key: str | None) -> tuple[float, tuple[Any, ...]]:
-    """``(the number at key, the test's identity)`` of a result file."""
+def _read_value(path: Path, key: str, test_key: str | None) -> tuple[float, tuple[Any, ...]] | None:
+    """``(the number at key, the test's identity)`` of a result file; ``None`` when the file is a
+    CSV table without that run's row (not written yet)."""
     data = _read_json(path)
     try:
-        value = float(lookup(data, key))
+        found = lookup(data, key)
+    except NoItem as exc:
+        if isinstance(data, list):
+            return None
+        raise EvodevoError(f"result file {str(path)!r}: {key!r} selects no item ({exc})") from None
+    except KeyError as exc:
+        raise EvodevoError(f"result file {str(path)!r}: {key!r} gives no number ({exc})") from None
+    try:
+        value = float(found)
         test = (json.dumps(lookup(data, test_key)),) if test_key else ()
     except (KeyError, TypeError, ValueError) as exc:
         raise EvodevoError(f"result file {str(path)!r}: {key!r} gives no number ({exc})") from None
@@ -318,7 +351,10 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
                 scores.episodes.append(n)
                 scores.values.append(100.0 * k / n)
             else:
-                value, test = _read_value(path, part, spec.test_key)
+                got = _read_value(path, part.format(seed=seed), spec.test_key)
+                if got is None:
+                    continue
+                value, test = got
                 scores.values.append(value)
             scores.seeds.append(seed)
             tests.setdefault(test, str(path))
@@ -433,8 +469,13 @@ def decide_experiment(spec: ExperimentSpec, root: Path) -> ExperimentResult:
         len(arms[a].seeds) == n_reg for a in in_decision
     )
     if complete:
-        on = {spec.pair(t) for t in spec.claim_on}
-        reading = _reading(spec.claim, [c for c in decision if not on or (c.a, c.b) in on])
+        groups = spec.claim_groups or {"": spec.claim_on}
+        found_readings = []
+        for group, items in groups.items():
+            on = {spec.pair(t) for t in items}
+            r = _reading(spec.claim, [c for c in decision if not on or (c.a, c.b) in on])
+            found_readings.append(f"{group}: {r}" if group else r)
+        reading = "; ".join(found_readings)
     else:
         reading = f"pending ({have} of {n_reg} runs in every arm of the decision)"
     return ExperimentResult(spec, test, arms, decision, beside, complete, reading, n_reg)
@@ -513,6 +554,12 @@ def markdown(res: ExperimentResult) -> str:
         "",
         f"**Reading (claim: {spec.claim}"
         + (f", read on {', '.join(spec.claim_on)}" if spec.claim_on else "")
+        + (
+            ", read per group: "
+            + "; ".join(f"{g} = {', '.join(items)}" for g, items in spec.claim_groups.items())
+            if spec.claim_groups
+            else ""
+        )
         + f"): {res.reading}.**",
         "",
     ]

@@ -46,6 +46,7 @@ from evodevo.neuromod.final_verdicts import (
     final_verdict_csv,
     final_verdict_markdown,
 )
+from evodevo.neuromod.run_scores import RUN_SCORES_FILE, run_scores, run_scores_csv
 from evodevo.neuromod.table_format import (
     csv_text,
     format_seeds,
@@ -246,7 +247,8 @@ def continual_markdown(out: str | Path, reps: int = DEFAULT_REPS) -> str:
 def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS) -> Path:
     """Write ``table_3_*.md/.csv``, ``table_continual.md/.csv``, ``table_final_verdicts.md/.csv``
     (each variant against pnn on the final return, with a verdict), with module ablations
-    ``table_ablation_verdicts.md/.csv`` (biarm against each, E5's rule), ``table_aggregates.md`` (IQM,
+    ``table_ablation_verdicts.md/.csv`` (biarm against each, E5's rule), ``table_run_scores.csv``
+    (one row of per-run scores, :mod:`~evodevo.neuromod.run_scores`), ``table_aggregates.md`` (IQM,
     probability of improvement, performance profiles), ``table_cl_metrics.md/.csv``
     (with ``table_cl_paired.csv`` and ``table_cl_runs.csv``), ``report.md`` and (optionally)
     the figures into ``out``.
@@ -280,6 +282,7 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
     agg = aggregate_markdown(runs, root / PROFILE_FIGURE if figures else None, reps=reps)
     atomic_write_text(root / "table_aggregates.md", f"## {AGGREGATE_TITLE}\n\n{agg}\n{budget}\n")
     parts.append(f"## {AGGREGATE_TITLE}\n\n{agg}")
+    metrics: dict[str, dict[int, RunMetrics]] | None = None
     try:
         metrics, cl = _continual(root, reps)
     except EvodevoError as exc:
@@ -291,6 +294,7 @@ def write_report(out: str | Path, figures: bool = True, reps: int = DEFAULT_REPS
         atomic_write_text(root / "table_cl_paired.csv", cl.comparisons_csv())
         atomic_write_text(root / "table_cl_runs.csv", continual_runs_csv(metrics))
         parts.append(f"## {CL_TITLE}\n\n{body}")
+    atomic_write_text(root / RUN_SCORES_FILE, run_scores_csv(run_scores(runs, metrics)))
     if figures:
         names = draw_all(root, runs)
         parts.append("## Figures\n\n" + "\n".join(f"![{n}]({n})" for n in names) + "\n")
