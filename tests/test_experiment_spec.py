@@ -122,7 +122,7 @@ def test_corrupt_result_file_names_the_file(tmp_path: Path) -> None:
     [
         ({"decision": ["a - c"]}, "names arm 'c'"),
         ({"decision": ["a minus b"]}, "is not a comparison"),
-        ({"arms": {"a": "a.json", "b": "b_s{seed}.json"}}, "has no {seed}"),
+        ({"metric": "value", "arms": {"a": "a.json#x", "b": "b_s{seed}.json#x"}}, "has no {seed}"),
         ({"colour": "red"}, "unknown config key colour"),
         ({"claim": "better"}, "not accepted"),
         ({"delta": 0}, "must be > 0"),
@@ -153,7 +153,7 @@ def test_registered_specs_load(spec: Path) -> None:
     assert root.resolve().is_relative_to(CLAIMS)
     for arm in loaded.arms.values():
         # locked-range tests, BIARM summaries (locked eval seeds) or their per-run scores
-        assert any(k in arm for k in ("test_locked", "summary.json#tasks", "table_run_scores"))
+        assert any(k in arm for k in ("_locked", "summary.json#tasks", "table_run_scores"))
 
 
 def test_cli_compare_experiment(tmp_path: Path) -> None:
@@ -301,3 +301,20 @@ def test_claim_groups_read_once_per_group_under_one_holm_family(tmp_path: Path) 
     with pytest.raises(ConfigError, match="not both"):
         load_experiment(_spec(tmp_path, arms=arms, decision=["a - b"], claim_on=["a - b"],
                               claim_groups={"g": ["a - b"]}))  # fmt: skip
+
+
+def test_an_untrained_reference_tested_once_stands_beside_every_seed(tmp_path: Path) -> None:
+    _fill(tmp_path, [160 + s for s in range(8)], [100] * 8)
+    base = {"zero": {"successes": 70, "n": 200}, "turn": {"successes": 105, "n": 200}}
+    key = {"episodes": 200, "objects": "test", "test_seed": 1000000}
+    (tmp_path / "runs" / "baselines_locked.json").write_text(
+        json.dumps({"key": key, "baselines": base})
+    )
+    arms = {"a": "a_s{seed}/r.json", "turn": "baselines_locked.json#baselines.turn"}
+    md = write_experiment(_spec(tmp_path, arms=arms, decision=["a - turn"]))
+    res = decide_experiment(*load_experiment(_spec(tmp_path, arms=arms, decision=["a - turn"])))
+    assert res.arms["turn"].reference and res.decision[0].n == 8
+    assert res.decision[0].mean_diff == pytest.approx(100 * (163.5 - 105) / 200)
+    text = md.read_text()
+    assert "| turn | one test | (untrained) |" in text and "| 105 / 200 |" in text
+    assert "turn,,105,200,52.5" in (md.parent / "runs.csv").read_text()

@@ -84,6 +84,11 @@ g1() {
 
 g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
   local src; src=$(code_at 3b679d4)
+  local refs="$out/regulation/baselines_locked.json"  # the untrained references, once
+  if [ ! -f "$refs" ]; then
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn baselines --config "${src%/src}/configs/grn_vision.yaml" \
+      --test-episodes 200 --objects test --test-seed 1000000 --workers 2 --quiet --out "$refs"
+  fi
   for seed in 0 1 2 3 4 5; do
     grn_arm "$src" grn "$seed" --keep validated
     grn_arm "$src" blind "$seed" --keep validated --blind

@@ -28,6 +28,10 @@ With ``metric: success`` (the default), a result file is what ``grn evaluate`` /
 ``100 × successes / episodes``. Every file of an experiment must come from the same test
 episodes (objects, first seed, count), or the experiment refuses.
 
+An untrained reference policy tested once on the same episodes is an arm whose file has no
+``{seed}``: e.g. ``turn: baselines_locked.json#baselines.turn`` (a ``grn baselines`` file);
+its one score stands beside every run seed.
+
 With ``metric: value`` each arm names a number inside a JSON file by a key path
 (:func:`lookup`), e.g. a BIARM run's final return on one task, and δ is given as ``delta`` or
 as ``delta_task`` (the task's return margin, :func:`evodevo.evidence.normalise.return_margin`)::
@@ -138,10 +142,10 @@ class ExperimentSpec:
         if not self.arms:
             raise ConfigError("arms: name at least two arms and their result files")
         for arm, template in self.arms.items():
-            if "{seed}" not in template:
+            if "{seed}" not in template and self.metric != "success":
                 raise ConfigError(
                     f"arms.{arm}: {template!r} has no {{seed}}; write the result file of seed "
-                    "{seed}, e.g. grn_s{seed}/test_locked.json"
+                    "{seed}, e.g. runs/biarm__s{seed}/summary.json#tasks[0].final_return"
                 )
         if not self.decision:
             raise ConfigError("decision: name at least one comparison 'a - b'")
@@ -225,6 +229,9 @@ class ArmScores:
     name: str
     seeds: list[int] = field(default_factory=list)
     values: list[float] = field(default_factory=list)
+    reference: bool = False
+    """An untrained policy tested once (a file without ``{seed}``): its one score stands
+    beside every run seed; its successes and episodes are that one test's."""
     successes: list[int] = field(default_factory=list)
     episodes: list[int] = field(default_factory=list)
 
@@ -305,11 +312,13 @@ def _read_success(path: Path, part: str | None) -> tuple[int, int, tuple[Any, ..
         src: Any = lookup(data, part) if part else data
     except KeyError:
         src = None
-    if not isinstance(src, dict) or "successes" not in src or "episodes" not in data:
+    facts = data.get("key", data)  # `grn baselines` files keep the episodes' facts under "key"
+    if not isinstance(src, dict) or "successes" not in src or "episodes" not in facts:
         what = f"a {part!r} part with successes" if part else "successes and episodes"
         raise EvodevoError(f"result file {str(path)!r} has no {what}; is it a test result?")
-    n = int(data["episodes"])
-    return int(src["successes"]), n, (str(data.get("objects")), int(data.get("test_seed", -1)), n)
+    n = int(facts["episodes"])
+    test = (str(facts.get("objects")), int(facts.get("test_seed", -1)), n)
+    return int(src["successes"]), n, test
 
 
 def _read_value(path: Path, key: str, test_key: str | None) -> tuple[float, tuple[Any, ...]] | None:
@@ -341,6 +350,17 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
     for name, template in spec.arms.items():
         file, _, part = template.partition("#")
         scores = ArmScores(name)
+        if "{seed}" not in template:  # a reference tested once (success metric only)
+            path = root / file
+            if path.is_file():
+                k, n, test = _read_success(path, part or None)
+                scores.reference = True
+                scores.seeds = parse_seeds(spec.seeds, "seeds")
+                scores.values = [100.0 * k / n] * len(scores.seeds)
+                scores.successes, scores.episodes = [k], [n]
+                tests.setdefault(test, str(path))
+            arms[name] = scores
+            continue
         for seed in parse_seeds(spec.seeds, "seeds"):
             path = root / file.format(seed=seed)
             if not path.is_file():
@@ -404,8 +424,8 @@ class ExperimentResult:
             pooled = rate(sum(a.successes), sum(a.episodes)) if a.successes else None
             row: dict[str, Any] = {
                 "arm": n,
-                "runs": len(a.seeds),
-                "seeds": ",".join(map(str, a.seeds)),
+                "runs": "one test" if a.reference else len(a.seeds),
+                "seeds": "(untrained)" if a.reference else ",".join(map(str, a.seeds)),
                 "mean": float(points[n][0]) if n in points else None,
                 "low": float(intervals[n][0, 0]) if n in intervals else None,
                 "high": float(intervals[n][1, 0]) if n in intervals else None,
@@ -607,7 +627,9 @@ def write_experiment(spec_path: str | Path, out: str | Path | None = None) -> Pa
         runs = [
             {"arm": a.name, "seed": s, "successes": k, "episodes": n, "success": v}
             for a in res.arms.values()
-            for s, v, k, n in zip(a.seeds, a.values, a.successes, a.episodes, strict=True)
+            for s, v, k, n in zip(
+                [""] if a.reference else a.seeds, a.values, a.successes, a.episodes, strict=False
+            )
         ]
     else:
         runs = [
@@ -617,11 +639,19 @@ def write_experiment(spec_path: str | Path, out: str | Path | None = None) -> Pa
         ]
     atomic_write_text(folder / "runs.csv", _csv(runs))
     plot_run_scores(
-        {a.name: {s: a.score(s) for s in a.seeds} for a in res.arms.values()},
-        {r["arm"]: (r["mean"], r["low"], r["high"]) for r in res.arm_rows if r["mean"] is not None},
+        {
+            a.name: {s: a.score(s) for s in a.seeds[: 1 if a.reference else None]}
+            for a in res.arms.values()
+        },
+        {
+            r["arm"]: (r["mean"], r["low"], r["high"])
+            for r, a in zip(res.arm_rows, res.arms.values(), strict=True)
+            if r["mean"] is not None and not a.reference
+        },
         folder / "runs.png",
         ylabel="success on the test episodes (%)" if spec.metric == "success" else spec.unit,
-        title=f"{spec.name}: each run (dots) and the mean over runs [95 % CI]",
+        title=f"{spec.name}: each run (dots; an untrained reference: its one test) and the "
+        "mean over runs [95 % CI]",
         target=spec.target if spec.metric == "success" else None,
     )
     return md
