@@ -214,9 +214,24 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
   decide e3
 }
 
+# Each experiment runs in a subshell that stops at its first failure; a failed experiment is
+# reported and the queue goes on with the next one (its runs are retried on the next call).
+failed=()
 for e in "${@:-E1 E3A G1 G4 G3 G6 G5 E2 E4 G2 E5 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
-    "${x,,}"
+    set +e
+    ( set -e; "${x,,}" )
+    rc=$?
+    set -e
+    if [ "$rc" -ne 0 ]; then
+      echo "== $x FAILED (exit $rc) $(date -u +%FT%TZ); going on with the next experiment"
+      failed+=("$x")
+    fi
   done
 done
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "== failed: ${failed[*]}"
+  exit 1
+fi
+echo "== all done $(date -u +%FT%TZ)"
