@@ -57,18 +57,34 @@ class BiarmAgent:
         self.modules: Neuromodulators | None = None
         ctx_w: list[float] = list(cfg.modules.context_weights)
         lr_w: list[float] = list(cfg.modules.lr_weights)
+        # the states the gates read (live, or at rest for lr-only) and those Eq. 3.7 reads
+        # (None: the live ones; the resting list for gates-only)
+        self._gate_np: np.ndarray | None = None
+        self._lr_rest: list[float] | None = None
         if variant.modulated:
             self.modules = Neuromodulators(cfg.modules, obs_dim, seed, variant.ablated)
             ctx_w = self.modules.to_internal(ctx_w).tolist()
             lr_w = self.modules.to_internal(lr_w).tolist()
             self.states_t: torch.Tensor | None = self.modules.state_t
+            self._gate_np = self.modules.state_array
+            at_rest = np.full_like(self.modules.state_array, cfg.modules.ablated_value)
+            if not variant.gates_modulated:
+                self._gate_np = at_rest
+                self.states_t = torch.from_numpy(at_rest)
+            if not variant.lr_modulated:
+                self._lr_rest = at_rest.tolist()
         else:
             self.states_t = None
         if cfg.modules.lr_relative:  # eta_base at the resting state (modules.lr_relative)
             rest = cfg.modules.initial_state * sum(cfg.modules.lr_weights)
             lr_w = [w / rest for w in lr_w]
         self._lr_w = lr_w  # Eq. 3.7 weights, internal layout (Python floats: a 4-term sum)
-        self.learned = variant.modulated and variant.gated and cfg.modules.learning == "learned"
+        self.learned = (
+            variant.modulated
+            and variant.gated
+            and variant.gates_modulated
+            and cfg.modules.learning == "learned"
+        )
         self.net: ProgressiveNet | SharedNet
         if variant.architecture == "shared":
             self.net = SharedNet(obs_dim, cfg.network.hidden, seed)
@@ -179,7 +195,8 @@ class BiarmAgent:
         base = self.dqn.lr
         if self.modules is None:
             return base
-        return effective_lr(base, self.modules.state_array.tolist(), self._lr_w)
+        states = self._lr_rest if self._lr_rest is not None else self.modules.state_array.tolist()
+        return effective_lr(base, states, self._lr_w)
 
     def gate(self) -> float:
         """Context gate ``sigmoid(sum w_m s_m)`` of the current column (nan without laterals)."""
@@ -197,8 +214,7 @@ class BiarmAgent:
             return int(rng.integers(self.net.current.n_actions))
         net = self.net
         if isinstance(net, ProgressiveNet):  # NumPy forward: batch 1 is per-op overhead
-            st = self.modules.state_array if self.modules is not None else None
-            return int(net.q_np(self.obs_np, self.col, st).argmax())
+            return int(net.q_np(self.obs_np, self.col, self._gate_np).argmax())
         with torch.no_grad():
             return int(net.q(self.obs_t, self.col, self.states_t).argmax())
 

@@ -17,6 +17,11 @@ reference.
 * ``clamped``: BIARM with all four states held at rest (every module ablated, SPEC §1.5):
   gated laterals whose context gate and learning rate stay at their resting values -- the
   control that separates modulation from BIARM's architecture and resting learning rate.
+* ``lr-only`` and ``gates-only``: BIARM with one of the two paths of modulation held at rest
+  (E2's follow-up arms): ``lr-only`` modulates the learning rate (Eq. 3.7) while every gate
+  reads the resting states; ``gates-only`` modulates the gates (Eq. 3.8) while Eq. 3.7 reads the
+  resting states. The modules run in both. With ``modules.learning: learned`` the module
+  networks of ``lr-only`` get no gradient (their only path to the loss is the gate).
 * ``single``: progressive columns that never read each other (``lateral=False``): the
   single-task reference per task that forward transfer is measured against (SPEC §6).
 
@@ -54,6 +59,10 @@ class Variant:
             an ``sb3`` DQN per task.
         consolidation: ``ewc`` adds the Eq. 2.4 penalty on the shared body; ``none`` is
             plain fine-tuning.
+        lr_modulated: with ``modulated``, Eq. 3.7 reads the live states; ``False``: the
+            resting states (``modules.ablated_value``), as ``clamped`` does.
+        gates_modulated: with ``modulated``, the gates (Eq. 3.8) read the live states;
+            ``False``: the resting states.
         lateral: a new column reads the earlier ones (PNN, BIARM); ``False`` is the
             single-task reference of SPEC §6 (``single``): the PNN code with every lateral
             input scaled by 0, so each task's column learns alone -- with the same seeds,
@@ -67,6 +76,8 @@ class Variant:
     architecture: Architecture = "progressive"
     consolidation: Literal["none", "ewc"] = "none"
     lateral: bool = True
+    lr_modulated: bool = True
+    gates_modulated: bool = True
 
 
 VARIANTS: dict[str, Variant] = {
@@ -77,6 +88,8 @@ VARIANTS: dict[str, Variant] = {
     "no-ne": Variant("no-ne", True, True, ("NE",)),
     "no-ach": Variant("no-ach", True, True, ("ACh",)),
     "clamped": Variant("clamped", True, True, MODULE_NAMES),
+    "lr-only": Variant("lr-only", True, True, gates_modulated=False),
+    "gates-only": Variant("gates-only", True, True, lr_modulated=False),
     "finetune": Variant("finetune", False, False, architecture="shared"),
     "ewc": Variant("ewc", False, False, architecture="shared", consolidation="ewc"),
     "sb3-dqn": Variant("sb3-dqn", False, False, architecture="sb3"),
