@@ -217,7 +217,7 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
 # Each experiment runs in a subshell that stops at its first failure; a failed experiment is
 # reported and the queue goes on with the next one (its runs are retried on the next call).
 failed=()
-for e in "${@:-E1 E3A G1 G4 G3 G6 G5 E2 E4 G2 E5 E3B}"; do
+for e in "${@:-E1 E3A G1 G4 G3 E2 G6 E4 G5 E5 G2 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     set +e
