@@ -10,7 +10,8 @@ from typer.testing import CliRunner
 
 from evodevo.cli import app
 from evodevo.errors import ConfigError, EvodevoError
-from evodevo.evidence.experiment import decide_experiment, load_experiment, write_experiment
+from evodevo.evidence.experiment import decide_experiment, load_experiment
+from evodevo.evidence.experiment_table import write_experiment
 
 CLAIMS = Path(__file__).resolve().parents[1] / "docs" / "results" / "claims"
 

@@ -82,7 +82,7 @@ def experiment(
     margin δ) and writes table.md, comparisons.csv, runs.csv and runs.png. The claim reads
     "pending" until every arm of the decision has all its registered runs.
     """
-    from evodevo.evidence.experiment import write_experiment
+    from evodevo.evidence.experiment_table import write_experiment
 
     md = write_experiment(spec, out)
     typer.echo(md.read_text().rstrip())

@@ -8,7 +8,10 @@
   Holm, the smallest p and the minimum detectable difference of n runs;
 * :mod:`~evodevo.evidence.verdict` — "different", "equivalent within δ" or "inconclusive",
   with the runs a decision needs;
-* :mod:`~evodevo.evidence.profiles` — the figures, from the same arrays as the tables.
+* :mod:`~evodevo.evidence.profiles` — the figures, from the same arrays as the tables;
+* :mod:`~evodevo.evidence.experiment` — a pre-registered experiment from a YAML file, decided
+  from its runs' result files (:mod:`~evodevo.evidence.result_files`), with its tables
+  (:mod:`~evodevo.evidence.experiment_table`; ``evodevo compare experiment``).
 
 Statistics of one run's episodes (Wilson, McNemar, bootstrap of a run's mean) stay in
 :mod:`evodevo.stats`; they never compare learners.

@@ -1,10 +1,11 @@
 """A pre-registered experiment, decided from its runs' result files (SPEC §6).
 
-The Kuka experiments of ``docs/results/claims.md`` (G1-G6) each compare a few arms, trained
-with run seeds ``0..n-1``, by their success on the same locked-range test episodes. Their
-registration (arms, runs, margin δ, the comparisons that decide and the claim they decide) is
-written down before the runs; this module reads that registration from a YAML file and the
-runs' test results, and writes the tables that decide it, so the verdict is redrawn from the
+The experiments of ``docs/results/claims.md`` each compare a few arms, trained with the same
+run seeds, by one score per run: the success on the same locked-range test episodes (G1-G6) or
+a number of a BIARM run (E2-E4). Their registration (arms, runs, margin δ, the comparisons that
+decide and the claim they decide) is written down before the runs; this module reads it from a
+YAML file, reads the runs' result files (:mod:`~evodevo.evidence.result_files`) and decides it;
+:mod:`~evodevo.evidence.experiment_table` writes the tables, so the verdict is redrawn from the
 committed files by one command (``evodevo compare experiment SPEC.yaml``).
 
 The spec, e.g. ``docs/results/claims/g1.yaml``::
@@ -33,7 +34,7 @@ An untrained reference policy tested once on the same episodes is an arm whose f
 its one score stands beside every run seed.
 
 With ``metric: value`` each arm names a number inside a JSON file by a key path
-(:func:`lookup`), e.g. a BIARM run's final return on one task, and δ is given as ``delta`` or
+(:func:`~evodevo.evidence.result_files.lookup`), e.g. a BIARM run's final return on one task, and δ is given as ``delta`` or
 as ``delta_task`` (the task's return margin, :func:`evodevo.evidence.normalise.return_margin`)::
 
     metric: value
@@ -60,11 +61,7 @@ sign-flip test, bootstrap interval of the mean difference, δ), Holm-corrected o
 
 from __future__ import annotations
 
-import csv
 import functools
-import io
-import json
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -76,15 +73,14 @@ from evodevo.config import doc, from_dict, read_yaml
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.evidence.aggregate import AGGREGATES, DEFAULT_REPS, interval_estimates
 from evodevo.evidence.normalise import SUCCESS_RATE_MARGIN
+from evodevo.evidence.result_files import read_success, read_value
 from evodevo.evidence.verdict import (
     DIFFERENT,
     EQUIVALENT,
     Comparison,
     compare,
     holm_table,
-    to_markdown,
 )
-from evodevo.seed_split import range_label
 from evodevo.seeding import parse_seeds
 from evodevo.stats import rate
 
@@ -95,7 +91,6 @@ __all__ = [
     "load_experiment",
     "read_arms",
     "decide_experiment",
-    "write_experiment",
 ]
 
 Claim = Literal["higher", "higher_by_delta", "equivalent", "none"]
@@ -240,107 +235,6 @@ class ArmScores:
         return self.values[self.seeds.index(seed)]
 
 
-class NoItem(KeyError):
-    """A selector ``[key=value]`` matched no item (in a CSV file: that run has no row yet)."""
-
-
-_SELECT = re.compile(r"^(?P<name>[^\[\]]*)(?:\[(?P<sel>[^\]]+)\])?$")
-
-
-def lookup(data: Any, path: str) -> Any:
-    """The value at key path ``path`` of parsed JSON ``data``.
-
-    Segments are separated by dots; ``name[3]`` takes item 3 of a list and
-    ``name[key=value]`` (or ``name[k1=v1,k2=v2]``) the one item whose keys have those values.
-    A CSV file is read as the list of its rows, so ``[variant=biarm,seed=3].column`` is a cell.
-
-    >>> lookup({"tasks": [{"env_id": "A", "r": 1}, {"env_id": "B", "r": 2}]}, "tasks[env_id=B].r")
-    2
-    """
-    cur = data
-    for seg in path.split("."):
-        m = _SELECT.match(seg)
-        if m is None:
-            raise KeyError(f"{seg!r} is not a key ('name', 'name[3]' or 'name[key=value]')")
-        if m["name"]:
-            if not isinstance(cur, dict) or m["name"] not in cur:
-                raise KeyError(f"no key {m['name']!r}")
-            cur = cur[m["name"]]
-        sel = m["sel"]
-        if sel is None:
-            continue
-        if not isinstance(cur, list):
-            raise KeyError(f"{seg!r} selects from {type(cur).__name__}, not a list")
-        if "=" in sel:
-            conds = [c.partition("=")[::2] for c in sel.split(",")]
-            hits = [
-                x for x in cur if isinstance(x, dict) and all(str(x.get(k)) == v for k, v in conds)
-            ]
-            if len(hits) != 1:
-                what = " and ".join(f"{k} = {v}" for k, v in conds)
-                err = NoItem if not hits else KeyError
-                raise err(f"{len(hits)} items of {m['name'] or 'the list'} have {what}")
-            cur = hits[0]
-        else:
-            try:
-                cur = cur[int(sel)]
-            except (ValueError, IndexError):
-                raise KeyError(f"{seg!r}: no item {sel}") from None
-    return cur
-
-
-def _read_json(path: Path) -> Any:
-    """The parsed JSON of ``path``; a ``.csv`` file as the list of its rows (dicts of text)."""
-    try:
-        if path.suffix == ".csv":
-            with path.open(newline="") as f:
-                return list(csv.DictReader(f))
-        return json.loads(path.read_text())
-    except (OSError, ValueError, csv.Error) as exc:
-        raise EvodevoError(
-            f"result file {str(path)!r} cannot be read as JSON ({exc}); rerun the test or run "
-            "that writes it"
-        ) from None
-
-
-def _read_success(path: Path, part: str | None) -> tuple[int, int, tuple[Any, ...]]:
-    """``(successes, episodes, the test's identity)`` of a test result file."""
-    data = _read_json(path)
-    if not isinstance(data, dict):
-        raise EvodevoError(f"result file {str(path)!r} holds no test result (not a mapping)")
-    try:
-        src: Any = lookup(data, part) if part else data
-    except KeyError:
-        src = None
-    facts = data.get("key", data)  # `grn baselines` files keep the episodes' facts under "key"
-    if not isinstance(src, dict) or "successes" not in src or "episodes" not in facts:
-        what = f"a {part!r} part with successes" if part else "successes and episodes"
-        raise EvodevoError(f"result file {str(path)!r} has no {what}; is it a test result?")
-    n = int(facts["episodes"])
-    test = (str(facts.get("objects")), int(facts.get("test_seed", -1)), n)
-    return int(src["successes"]), n, test
-
-
-def _read_value(path: Path, key: str, test_key: str | None) -> tuple[float, tuple[Any, ...]] | None:
-    """``(the number at key, the test's identity)`` of a result file; ``None`` when the file is a
-    CSV table without that run's row (not written yet)."""
-    data = _read_json(path)
-    try:
-        found = lookup(data, key)
-    except NoItem as exc:
-        if isinstance(data, list):
-            return None
-        raise EvodevoError(f"result file {str(path)!r}: {key!r} selects no item ({exc})") from None
-    except KeyError as exc:
-        raise EvodevoError(f"result file {str(path)!r}: {key!r} gives no number ({exc})") from None
-    try:
-        value = float(found)
-        test = (json.dumps(lookup(data, test_key)),) if test_key else ()
-    except (KeyError, TypeError, ValueError) as exc:
-        raise EvodevoError(f"result file {str(path)!r}: {key!r} gives no number ({exc})") from None
-    return value, test
-
-
 def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], tuple[Any, ...]]:
     """Every arm's runs among the registered seeds (missing files are skipped) and the identity
     of the test they share (success: ``(objects, first test seed, episodes)``; value: the
@@ -353,7 +247,7 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
         if "{seed}" not in template:  # a reference tested once (success metric only)
             path = root / file
             if path.is_file():
-                k, n, test = _read_success(path, part or None)
+                k, n, test = read_success(path, part or None)
                 scores.reference = True
                 scores.seeds = parse_seeds(spec.seeds, "seeds")
                 scores.values = [100.0 * k / n] * len(scores.seeds)
@@ -366,12 +260,12 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
             if not path.is_file():
                 continue
             if spec.metric == "success":
-                k, n, test = _read_success(path, part or None)
+                k, n, test = read_success(path, part or None)
                 scores.successes.append(k)
                 scores.episodes.append(n)
                 scores.values.append(100.0 * k / n)
             else:
-                got = _read_value(path, part.format(seed=seed), spec.test_key)
+                got = read_value(path, part.format(seed=seed), spec.test_key)
                 if got is None:
                     continue
                 value, test = got
@@ -499,159 +393,3 @@ def decide_experiment(spec: ExperimentSpec, root: Path) -> ExperimentResult:
     else:
         reading = f"pending ({have} of {n_reg} runs in every arm of the decision)"
     return ExperimentResult(spec, test, arms, decision, beside, complete, reading, n_reg)
-
-
-def _range_words(label: str) -> str:
-    """``"the locked test range"`` for a caption (SPEC §6), else the range's name."""
-    if label == "test":
-        return "the locked test range"
-    return label if label == "outside the split" else f"the {label} range"
-
-
-def _f(v: float | None, digits: int = 1) -> str:
-    return "—" if v is None else f"{v:.{digits}f}"
-
-
-def _test_words(res: ExperimentResult) -> str:
-    if res.spec.metric == "success":
-        objects, first, n = res.test
-        return (
-            f"Test: {n} episodes on {objects} objects, first seed {first} "
-            f"({_range_words(range_label(first, n))})"
-        )
-    if res.spec.test_key:
-        return f"Test: every run's {res.spec.test_key} is {res.test[0]}"
-    return "Test: as each result file records it"
-
-
-def markdown(res: ExperimentResult) -> str:
-    """The experiment's tables: arms, the decision, the comparisons beside, and the reading."""
-    spec = res.spec
-    success = spec.metric == "success"
-    units = "points" if success else "(units of the metric)"
-    lines = [
-        f"# {spec.name}. {spec.title}",
-        "",
-        f"{_test_words(res)}; registered run seeds {spec.seeds} ({res.runs_registered} per "
-        f"arm); metric {spec.unit}; δ = {spec.margin:g} {units}; intervals are 95 % bootstrap "
-        f"intervals over runs ({spec.reps} resamples).",
-        "",
-    ]
-    target = f" pooled ≥ {spec.target:g} % |" if success and spec.target is not None else ""
-    if success:
-        lines += [
-            "| arm | runs | seeds | mean success over runs [95 % CI] | pooled successes | "
-            "pooled success [Wilson 95 %] |" + target,
-            "|---|---:|---|---:|---:|---:|" + ("---|" if target else ""),
-        ]
-    else:
-        lines += ["| arm | runs | seeds | mean over runs [95 % CI] |", "|---|---:|---|---:|"]
-    digits = 1 if success else 2
-    for r in res.arm_rows:
-        row = (
-            f"| {r['arm']} | {r['runs']} | {r['seeds'] or '—'} | {_f(r['mean'], digits)} "
-            f"[{_f(r['low'], digits)}, {_f(r['high'], digits)}] |"
-        )
-        if success:
-            row += (
-                f" {r['pooled_successes']} / {r['pooled_episodes']} | {_f(r['pooled'])} "
-                f"[{_f(r['pooled_low'])}, {_f(r['pooled_high'])}] |"
-            )
-        if target:
-            reached = r["pooled"] is not None and r["pooled"] >= (spec.target or 0)
-            row += " — |" if r["pooled"] is None else f" {'yes' if reached else 'no'} |"
-        lines.append(row)
-    lines += [
-        "",
-        "## The decision",
-        "",
-        f"Paired by run seed (A − B, {spec.unit}), exact sign-flip test, Holm over the "
-        f"{len(spec.decision)} comparison(s) below.",
-        "",
-        to_markdown(res.decision, digits=digits)
-        if res.decision
-        else "(no comparison has 2 paired runs yet)",
-        "",
-        f"**Reading (claim: {spec.claim}"
-        + (f", read on {', '.join(spec.claim_on)}" if spec.claim_on else "")
-        + (
-            ", read per group: "
-            + "; ".join(f"{g} = {', '.join(items)}" for g, items in spec.claim_groups.items())
-            if spec.claim_groups
-            else ""
-        )
-        + f"): {res.reading}.**",
-        "",
-    ]
-    if spec.beside:
-        lines += [
-            "## Beside the decision",
-            "",
-            "Each comparison alone (no correction; not part of the decision).",
-            "",
-            to_markdown(res.beside, digits=digits) if res.beside else "(no paired runs yet)",
-            "",
-        ]
-    return "\n".join(lines)
-
-
-def _csv(rows: Sequence[Mapping[str, Any]]) -> str:
-    buf = io.StringIO()
-    if rows:
-        w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-        w.writeheader()
-        w.writerows(rows)
-    return buf.getvalue()
-
-
-def write_experiment(spec_path: str | Path, out: str | Path | None = None) -> Path:
-    """Decide the experiment of ``spec_path`` and write ``OUT/table.md``, ``comparisons.csv``,
-    ``runs.csv`` and ``runs.png`` (default OUT: ``<root>/<name>``); returns ``table.md``."""
-    from evodevo.evidence.profiles import plot_run_scores
-    from evodevo.runs import atomic_write_text
-
-    spec, root = load_experiment(spec_path)
-    res = decide_experiment(spec, root)
-    folder = Path(out) if out is not None else root / spec.name.lower()
-    folder.mkdir(parents=True, exist_ok=True)
-    md = folder / "table.md"
-    atomic_write_text(md, markdown(res) + "\n")
-    comps = [
-        {"family": fam, **{k: getattr(c, k) for k in ("a", "b", "n", "mean_diff", "low", "high",
-         "std_diff", "p", "p_adj", "delta", "mde", "verdict", "runs_needed")}}
-        for fam, cs in (("decision", res.decision), ("beside", res.beside))
-        for c in cs
-    ]  # fmt: skip
-    atomic_write_text(folder / "comparisons.csv", _csv(comps))
-    if spec.metric == "success":
-        runs = [
-            {"arm": a.name, "seed": s, "successes": k, "episodes": n, "success": v}
-            for a in res.arms.values()
-            for s, v, k, n in zip(
-                [""] if a.reference else a.seeds, a.values, a.successes, a.episodes, strict=False
-            )
-        ]
-    else:
-        runs = [
-            {"arm": a.name, "seed": s, "value": v}
-            for a in res.arms.values()
-            for s, v in zip(a.seeds, a.values, strict=True)
-        ]
-    atomic_write_text(folder / "runs.csv", _csv(runs))
-    plot_run_scores(
-        {
-            a.name: {s: a.score(s) for s in a.seeds[: 1 if a.reference else None]}
-            for a in res.arms.values()
-        },
-        {
-            r["arm"]: (r["mean"], r["low"], r["high"])
-            for r, a in zip(res.arm_rows, res.arms.values(), strict=True)
-            if r["mean"] is not None and not a.reference
-        },
-        folder / "runs.png",
-        ylabel="success on the test episodes (%)" if spec.metric == "success" else spec.unit,
-        title=f"{spec.name}: each run (dots; an untrained reference: its one test) and the "
-        "mean over runs [95 % CI]",
-        target=spec.target if spec.metric == "success" else None,
-    )
-    return md
