@@ -280,9 +280,11 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
             "all on the same episodes (objects, first seed and number)"
         )
     if not tests:
+        first = next(iter(spec.arms.values())).partition("#")[0]
+        example = first.format(seed=parse_seeds(spec.seeds, "seeds")[0])
         raise EvodevoError(
-            f"no result file of {spec.name} exists yet under {str(root)!r} (e.g. "
-            f"{next(iter(spec.arms.values())).format(seed=parse_seeds(spec.seeds, 'seeds')[0])})"
+            f"no result file of {spec.name} exists yet under {str(root)!r} (e.g. {example}); "
+            "run the experiment's runs first"
         )
     return arms, next(iter(tests))
 
