@@ -26,16 +26,14 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from evodevo.evidence.aggregate import DEFAULT_REPS
-from evodevo.evidence.normalise import return_margin
 from evodevo.evidence.verdict import (
     DIFFERENT,
     EQUIVALENT,
     Comparison,
-    compare,
     holm_table,
     to_markdown,
 )
-from evodevo.neuromod.continual_metrics import scale_of
+from evodevo.neuromod.final_verdicts import task_comparisons
 from evodevo.neuromod.tables import ABLATIONS
 
 __all__ = [
@@ -61,23 +59,7 @@ def ablation_comparisons(
     :data:`ABLATIONS` order, tasks in sequence order."""
     if full not in runs:
         return []
-    cells: list[Comparison] = []
-    for module in (m for m in ABLATIONS if m in runs):
-        seeds = sorted(set(runs[module]) & set(runs[full]))
-        if not seeds:
-            continue
-        tasks = runs[full][seeds[0]]["tasks"]
-        if [t["env_id"] for t in runs[module][seeds[0]]["tasks"]] != [t["env_id"] for t in tasks]:
-            continue  # another task sequence: nothing to pair
-        for i, task in enumerate(tasks):
-            scale = scale_of(str(task["env_id"]), task.get("max_steps"))
-            if scale is None:
-                continue
-            a = [float(runs[full][s]["tasks"][i]["final_return"]) for s in seeds]
-            b = [float(runs[module][s]["tasks"][i]["final_return"]) for s in seeds]
-            cells.append(
-                compare(full, a, module, b, return_margin(scale), reps=reps, task=task["env_id"])
-            )
+    cells = [c for m in ABLATIONS if m in runs for c in task_comparisons(runs, full, m, reps)]
     return holm_table(cells) if cells else []
 
 

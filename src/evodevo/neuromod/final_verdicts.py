@@ -30,6 +30,7 @@ from evodevo.neuromod.continual_metrics import scale_of
 __all__ = [
     "FINAL_TITLE",
     "FINAL_FILE",
+    "task_comparisons",
     "final_return_comparisons",
     "final_verdict_markdown",
     "final_verdict_csv",
@@ -42,6 +43,26 @@ FINAL_FILE = "table_final_verdicts"
 Runs = Mapping[str, Mapping[int, Mapping[str, Any]]]
 
 
+def task_comparisons(runs: Runs, a: str, b: str, reps: int = DEFAULT_REPS) -> list[Comparison]:
+    """``a`` − ``b`` on the final return, one uncorrected comparison per task that has a δ,
+    paired on the seeds both finished; empty when they share no seed or task sequence."""
+    seeds = sorted(set(runs[a]) & set(runs[b]))
+    if not seeds:
+        return []
+    tasks = runs[b][seeds[0]]["tasks"]
+    if [t["env_id"] for t in runs[a][seeds[0]]["tasks"]] != [t["env_id"] for t in tasks]:
+        return []  # another task sequence: nothing to pair
+    out = []
+    for i, task in enumerate(tasks):
+        scale = scale_of(str(task["env_id"]), task.get("max_steps"))
+        if scale is None:
+            continue
+        xa = [float(runs[a][s]["tasks"][i]["final_return"]) for s in seeds]
+        xb = [float(runs[b][s]["tasks"][i]["final_return"]) for s in seeds]
+        out.append(compare(a, xa, b, xb, return_margin(scale), reps=reps, task=task["env_id"]))
+    return out
+
+
 def final_return_comparisons(
     runs: Runs, reference: str = "pnn", reps: int = DEFAULT_REPS
 ) -> list[Comparison]:
@@ -52,25 +73,9 @@ def final_return_comparisons(
         return []
     out: list[Comparison] = []
     for variant in sorted(v for v in runs if v != reference):
-        seeds = sorted(set(runs[variant]) & set(runs[reference]))
-        if not seeds:
-            continue
-        tasks = runs[reference][seeds[0]]["tasks"]
-        if [t["env_id"] for t in runs[variant][seeds[0]]["tasks"]] != [t["env_id"] for t in tasks]:
-            continue  # another task sequence: nothing to pair
-        family = []
-        for i, task in enumerate(tasks):
-            scale = scale_of(str(task["env_id"]), task.get("max_steps"))
-            if scale is None:
-                continue
-            a = [float(runs[variant][s]["tasks"][i]["final_return"]) for s in seeds]
-            b = [float(runs[reference][s]["tasks"][i]["final_return"]) for s in seeds]
-            family.append(
-                compare(
-                    variant, a, reference, b, return_margin(scale), reps=reps, task=task["env_id"]
-                )
-            )
-        out += holm_table(family)
+        family = task_comparisons(runs, variant, reference, reps)
+        if family:
+            out += holm_table(family)
     return out
 
 
