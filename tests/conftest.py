@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
+import numpy as np
 import pytest
 import torch
 
@@ -36,3 +37,30 @@ def fused_kernel_built() -> None:
     from evodevo.neuromod import kernels
 
     kernels.load()
+
+
+GridRuns = Callable[..., dict]
+
+
+@pytest.fixture
+def grid_runs() -> GridRuns:
+    """Build a synthetic BIARM grid ``{variant: {seed: {"tasks": [...]}}}`` whose final returns
+    are −100 + the variant's offset per task + N(0, 1) noise: ``grid_runs(tasks, offsets,
+    seeds=10)``."""
+
+    def make(tasks: list[str], offsets: dict[str, list[float]], seeds: int = 10) -> dict:
+        rng = np.random.default_rng(0)
+        return {
+            v: {
+                s: {
+                    "tasks": [
+                        {"env_id": t, "final_return": -100.0 + off + rng.normal()}
+                        for t, off in zip(tasks, per, strict=True)
+                    ]
+                }
+                for s in range(seeds)
+            }
+            for v, per in offsets.items()
+        }
+
+    return make

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from evodevo.neuromod.ablation_verdicts import (
     ablation_comparisons,
     ablation_verdict_markdown,
@@ -13,24 +11,10 @@ from evodevo.neuromod.ablation_verdicts import (
 TASKS = ["CartPole-v1", "Acrobot-v1"]
 
 
-def _runs(offsets: dict[str, list[float]], seeds: int = 10) -> dict:
-    rng = np.random.default_rng(0)
-    return {
-        v: {
-            s: {
-                "tasks": [
-                    {"env_id": t, "final_return": -100.0 + off + rng.normal()}
-                    for t, off in zip(TASKS, per, strict=True)
-                ]
-            }
-            for s in range(seeds)
-        }
-        for v, per in offsets.items()
-    }
-
-
-def test_cells_are_holm_corrected_together_and_read_per_module():
-    runs = _runs({"biarm": [0, 0], "no-da": [-100, 0], "no-ne": [0, 0], "no-ach": [0, 100]})
+def test_cells_are_holm_corrected_together_and_read_per_module(grid_runs):
+    runs = grid_runs(
+        TASKS, {"biarm": [0, 0], "no-da": [-100, 0], "no-ne": [0, 0], "no-ach": [0, 100]}
+    )
     cells = ablation_comparisons(runs, reps=500)
     assert [(c.b, c.task) for c in cells] == [
         (m, t) for m in ("no-da", "no-ne", "no-ach") for t in TASKS
@@ -45,7 +29,7 @@ def test_cells_are_holm_corrected_together_and_read_per_module():
     assert "Holm over all 6 cells" in md and "- `no-ne`: refuted" in md
 
 
-def test_without_ablations_or_biarm_there_is_nothing_to_decide():
-    assert ablation_comparisons(_runs({"pnn": [0, 0], "no-da": [0, 0]})) == []
-    assert ablation_comparisons(_runs({"biarm": [0, 0], "pnn": [0, 0]})) == []
+def test_without_ablations_or_biarm_there_is_nothing_to_decide(grid_runs):
+    assert ablation_comparisons(grid_runs(TASKS, {"pnn": [0, 0], "no-da": [0, 0]})) == []
+    assert ablation_comparisons(grid_runs(TASKS, {"biarm": [0, 0], "pnn": [0, 0]})) == []
     assert "no ablation" in ablation_verdict_markdown([])

@@ -3,8 +3,6 @@ each pair, δ from the task's random-to-solved span."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from evodevo.evidence.normalise import return_margin, task_scale
 from evodevo.neuromod.final_verdicts import (
     final_return_comparisons,
@@ -15,24 +13,8 @@ from evodevo.neuromod.final_verdicts import (
 TASKS = ["CartPole-v1", "Acrobot-v1", "Pendulum-v1"]  # Pendulum: no solved threshold, no δ
 
 
-def _runs(offsets: dict[str, list[float]], seeds: int = 10) -> dict:
-    rng = np.random.default_rng(0)
-    return {
-        v: {
-            s: {
-                "tasks": [
-                    {"env_id": t, "final_return": -100.0 + off + rng.normal()}
-                    for t, off in zip(TASKS, per, strict=True)
-                ]
-            }
-            for s in range(seeds)
-        }
-        for v, per in offsets.items()
-    }
-
-
-def test_a_clear_gain_is_different_and_noise_is_equivalent_within_delta():
-    runs = _runs({"pnn": [0, 0, 0], "biarm": [100, 0, 0]})
+def test_a_clear_gain_is_different_and_noise_is_equivalent_within_delta(grid_runs):
+    runs = grid_runs(TASKS, {"pnn": [0, 0, 0], "biarm": [100, 0, 0]})
     got = final_return_comparisons(runs, reps=500)
     assert [c.task for c in got] == ["CartPole-v1", "Acrobot-v1"]  # Pendulum has no δ
     cart, acro = got
@@ -43,8 +25,8 @@ def test_a_clear_gain_is_different_and_noise_is_equivalent_within_delta():
     assert min(c.p_adj for c in got) == min(1.0, 2 * min(c.p for c in got))
 
 
-def test_only_shared_seeds_are_paired_and_other_sequences_are_skipped():
-    runs = _runs({"pnn": [0, 0, 0], "biarm": [5, 0, 0]})
+def test_only_shared_seeds_are_paired_and_other_sequences_are_skipped(grid_runs):
+    runs = grid_runs(TASKS, {"pnn": [0, 0, 0], "biarm": [5, 0, 0]})
     for s in range(6, 10):
         del runs["biarm"][s]
     runs["other"] = {0: {"tasks": [{"env_id": "CartPole-v1", "final_return": 1.0}]}}
@@ -54,6 +36,6 @@ def test_only_shared_seeds_are_paired_and_other_sequences_are_skipped():
     assert final_verdict_csv(got).count("\n") == 1 + len(got)
 
 
-def test_without_the_reference_there_is_nothing_to_decide():
-    assert final_return_comparisons(_runs({"biarm": [0, 0, 0]})) == []
+def test_without_the_reference_there_is_nothing_to_decide(grid_runs):
+    assert final_return_comparisons(grid_runs(TASKS, {"biarm": [0, 0, 0]})) == []
     assert "no variant" in final_verdict_markdown([])
