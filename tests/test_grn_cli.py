@@ -103,6 +103,22 @@ def test_evaluate_json_noise_ablate_plot_video(fake_run, tmp_path):
     assert gif.stat().st_size > 0
 
 
+def test_a_test_on_other_episodes_keeps_the_runs_own_test(fake_run):
+    """Re-testing a run on another first seed (an older run on the locked range, SPEC §6) writes
+    its own files: the test the run was reported with is never overwritten."""
+    invoke("evaluate", fake_run, "--objects", "train", "--no-baselines", "--json")
+    own = (fake_run / "eval_train_0.json").read_text()
+    other = json.loads((fake_run / "config.json").read_text())["config"]["evaluation"]
+    seed = int(other["test_seed"]) + 17
+    res = invoke("evaluate", fake_run, "--objects", "train", "--test-seed", seed, "--json")
+    r = json.loads(res.output.strip().splitlines()[-1])
+    assert r["test_seed"] == seed
+    saved = json.loads((fake_run / f"eval_train_0_seed{seed}.json").read_text())
+    assert saved["successes"] == r["successes"] and saved["test_seed"] == seed
+    assert (fake_run / f"eval_train_0_seed{seed}_episodes.csv").is_file()
+    assert (fake_run / "eval_train_0.json").read_text() == own
+
+
 def test_ablate_with_set_writes_its_own_files_and_refuses_training_keys(fake_run):
     invoke("ablate", fake_run, "--test-episodes", 2)
     plain = (fake_run / "ablations.json").read_text()

@@ -6,7 +6,8 @@ seeds (derived from ``evaluation.test_seed``, not from the run seed, so every ru
 baseline meets the same episodes) on test or training objects. With a visual-noise sigma > 0 the
 genome is tested clean and noisy and the retention noisy/clean is reported. The all-zero and
 uniform-random policies run on the same seeds in the same call. It writes
-``eval_<objects>_<noise>.json`` and ``eval_<objects>_<noise>_episodes.csv``.
+``eval_<objects>_<noise>.json`` and ``eval_<objects>_<noise>_episodes.csv`` (with
+``_seed<S>`` before the extension when the test seed S is not the run's own, :func:`eval_name`).
 """
 
 from __future__ import annotations
@@ -144,14 +145,28 @@ def rate_dict(success: np.ndarray) -> dict[str, Any]:
     return asdict(r) | {"success_rate": r.rate}
 
 
-def eval_name(objects: str, noise: float, overrides: Mapping[str, Any] | None = None) -> str:
+def eval_name(
+    objects: str,
+    noise: float,
+    overrides: Mapping[str, Any] | None = None,
+    test_seed: int | None = None,
+    run_test_seed: int | None = None,
+) -> str:
     """Base name of the evaluation files, e.g. ``eval_test_0`` or ``eval_test_0.03``; a test
-    changed by ``--set`` adds a short digest of the changes (``eval_test_0_set-3f2a9c1b``).
+    changed by ``--set`` adds a short digest of the changes (``eval_test_0_set-3f2a9c1b``), and
+    a test on other episodes than the run's own test seed (``run_test_seed``, its config's
+    ``evaluation.test_seed``) adds that seed, so re-testing an older run on the locked range
+    (SPEC §6) never overwrites the test it was reported with.
 
     >>> eval_name("test", 0.03)
     'eval_test_0.03'
+    >>> eval_name("test", 0.0, test_seed=1000000, run_test_seed=10000)
+    'eval_test_0_seed1000000'
+    >>> eval_name("test", 0.0, test_seed=1000000, run_test_seed=1000000)
+    'eval_test_0'
     """
-    return f"eval_{objects}_{noise:g}{set_suffix(overrides)}"
+    seed = "" if test_seed is None or test_seed == run_test_seed else f"_seed{test_seed}"
+    return f"eval_{objects}_{noise:g}{seed}{set_suffix(overrides)}"
 
 
 def set_suffix(overrides: Mapping[str, Any] | None) -> str:
@@ -254,7 +269,7 @@ def evaluate_run(
         **({"overrides": dict(overrides)} if overrides else {}),
         "machine": machine_info(),
     }
-    name = eval_name(objects, noise, overrides)
+    name = eval_name(objects, noise, overrides, test_seed, int(cfg.evaluation.test_seed))
     write_json(loaded.run / f"{name}.json", result)
     loaded.run.write_csv(f"{name}_episodes.csv", rows)
     return result
