@@ -191,7 +191,7 @@ locked_test() {  # 200 held-out-object episodes on the locked range, once (GRN o
 }
 
 retest() {  # the saved models behind README's older rows, re-tested on the locked range (no training)
-  local src; src=$(code_at c7ab0e2)
+  local src; src=$(code_at 7b8b64f)
   local refs="$out/regulation/baselines_locked.json"  # G3's untrained references (same env)
   if [ ! -f "$refs" ]; then
     PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn baselines --config "${src%/src}/configs/grn_vision.yaml" \
