@@ -115,7 +115,12 @@ def test_a_test_on_other_episodes_keeps_the_runs_own_test(fake_run):
     assert r["test_seed"] == seed
     saved = json.loads((fake_run / f"eval_train_0_seed{seed}.json").read_text())
     assert saved["successes"] == r["successes"] and saved["test_seed"] == seed
-    assert (fake_run / f"eval_train_0_seed{seed}_episodes.csv").is_file()
+    rows = (fake_run / f"eval_train_0_seed{seed}_episodes.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    table = [dict(zip(header, row.split(","), strict=True)) for row in rows[1:]]
+    for policy, score in [("genome", r)] + list(r["baselines"].items()):
+        returns = [float(t["reward"]) for t in table if t["policy"] == policy]
+        assert len(returns) == 6 and score["mean_reward"] == pytest.approx(sum(returns) / 6)
     assert (fake_run / "eval_train_0.json").read_text() == own
 
 

@@ -249,7 +249,7 @@ def evaluate_run(
             main = ev.evaluate([loaded.genome], noisy_eps, config=noisy_cfg)
             rows += _rows("genome_noisy", noisy_eps, main)
             clean_rate = float(clean.success.mean())
-            out["clean"] = rate_dict(clean.success[0])
+            out["clean"] = rate_dict(clean.success[0]) | {"mean_reward": _mean_reward(clean)}
             out["retention"] = float(main.success.mean()) / clean_rate if clean_rate > 0 else None
         base: dict[str, Any] = {}
         if baselines_from is not None:
@@ -263,6 +263,7 @@ def evaluate_run(
         **{k: summary[k] for k in ("success_rate", "ci_low", "ci_high", "successes")},
         **_test_facts(loaded, n, objects, noise, test_seed),
         "mean_steps": float(main.steps.mean()),
+        "mean_reward": _mean_reward(main),
         **out,
         "baselines": base,
         "env_steps": env_steps,
@@ -331,8 +332,17 @@ def _run_trivial(
     for name in names:
         res = ev.evaluate([None], episodes, baseline=name)
         rows += _rows(name, episodes, res)
-        base[name] = rate_dict(res.success[0]) | {"mean_steps": float(res.steps.mean())}
+        base[name] = rate_dict(res.success[0]) | {
+            "mean_steps": float(res.steps.mean()),
+            "mean_reward": _mean_reward(res),
+        }
     return base, rows
+
+
+def _mean_reward(res: EpisodeResults) -> float:
+    """The mean episode return of one policy's test (the score beyond Kuka, where success is
+    rare: Pendulum, MountainCarContinuous)."""
+    return float(np.mean(res.reward[0]))
 
 
 def _baseline_key(config: GrnConfig, n: int, objects: str, test_seed: int) -> dict[str, Any]:
