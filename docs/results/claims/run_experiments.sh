@@ -207,7 +207,11 @@ retest() {  # the saved models behind README's older rows, re-tested on the lock
       mv "$run/test_locked.json.part" "$run/test_locked.json"
     fi
   done
-  local env kind seed extra  # the GRN beyond Kuka (docs/results/grn_general.md): its runs were not kept, so trained anew
+}
+
+general() {  # the GRN beyond Kuka (docs/results/grn_general.md): its runs were not kept, so trained anew
+  local src; src=$(code_at 87949c1)
+  local env kind seed extra run
   for env in pendulum mountaincar; do
     extra=(); [ "$env" = mountaincar ] && extra=(--generations 8 --episodes 5)
     for seed in 0 1 2 3 4; do
@@ -255,7 +259,7 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
 # Each experiment runs in a subshell that stops at its first failure; a failed experiment is
 # reported and the queue goes on with the next one (its runs are retried on the next call).
 failed=()
-for e in "${@:-E1 E3A RETEST G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
+for e in "${@:-E1 E3A RETEST GENERAL G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     set +e
