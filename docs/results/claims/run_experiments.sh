@@ -211,25 +211,44 @@ retest() {  # the saved models behind README's older rows, re-tested on the lock
 
 general() {  # the GRN beyond Kuka (docs/results/grn_general.md): its runs were not kept, so trained anew
   local src; src=$(code_at 87949c1)
-  local env kind seed extra run
+  local env kind seed
   for env in pendulum mountaincar; do
-    extra=(); [ "$env" = mountaincar ] && extra=(--generations 8 --episodes 5)
     for seed in 0 1 2 3 4; do
       for kind in plain neuromodulated; do
-        run="docs/results/grn_general/${env}_${kind}_s$seed"
-        if ! done_run "$run"; then
-          local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
-          PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evolve --config "${src%/src}/configs/grn_$env.yaml" \
-            --controller "$kind" --seed "$seed" "${extra[@]}" --keep validated --workers 2 --quiet "${resume[@]}" --out "$run"
-        fi
-        if [ ! -f "$run/test_locked.json" ]; then
-          PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --objects train --test-episodes 40 \
-            --test-seed 1000000 --workers 2 --json > "$run/test_locked.json.part"
-          mv "$run/test_locked.json.part" "$run/test_locked.json"
-        fi
+        general_arm "$src" docs/results/grn_general "$env" "$kind" "$seed"
       done
     done
   done
+}
+
+g7() {  # neuromodulated vs plain GRN beyond Kuka on fresh seeds (GENERAL's code and budget)
+  local src; src=$(code_at 87949c1)
+  local env kind seed
+  for env in mountaincar pendulum; do
+    for seed in 5 6 7 8 9 10 11 12 13 14; do
+      for kind in plain neuromodulated; do
+        general_arm "$src" "$out/general" "$env" "$kind" "$seed"
+      done
+    done
+  done
+  decide g7
+  decide g7_pendulum
+}
+
+general_arm() {  # general_arm SRC DIR ENV KIND SEED: evolve (resuming), then 40 locked-range test episodes
+  local src=$1 dir=$2 env=$3 kind=$4 seed=$5
+  local run="$dir/${env}_${kind}_s$seed" extra=()
+  [ "$env" = mountaincar ] && extra=(--generations 8 --episodes 5)
+  if ! done_run "$run"; then
+    local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evolve --config "${src%/src}/configs/grn_$env.yaml" \
+      --controller "$kind" --seed "$seed" "${extra[@]}" --keep validated --workers 2 --quiet "${resume[@]}" --out "$run"
+  fi
+  if [ ! -f "$run/test_locked.json" ]; then
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --objects train --test-episodes 40 \
+      --test-seed 1000000 --workers 2 --json > "$run/test_locked.json.part"
+    mv "$run/test_locked.json.part" "$run/test_locked.json"
+  fi
 }
 
 e5() {  # the module ablations beside E1's runs
@@ -259,7 +278,7 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
 # Each experiment runs in a subshell that stops at its first failure; a failed experiment is
 # reported and the queue goes on with the next one (its runs are retried on the next call).
 failed=()
-for e in "${@:-E1 E3A RETEST GENERAL G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
+for e in "${@:-E1 E3A RETEST GENERAL G7 G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
   for x in $e; do
     echo "== $x $(date -u +%FT%TZ)"
     set +e
