@@ -67,7 +67,10 @@ def grn_config(seed: int = 0, **evolution) -> GrnConfig:
 def validation_rows(run) -> list[dict[str, int]]:
     """``validation.csv`` without its timings (they differ between runs)."""
     with open(run / "validation.csv") as fh:
-        return [{k: int(v) for k, v in r.items() if k != "seconds"} for r in csv.DictReader(fh)]
+        return [
+            {k: int(v) for k, v in r.items() if k not in ("seconds", "mean_return")}
+            for r in csv.DictReader(fh)
+        ]
 
 
 def kept_index(rows: list[dict[str, int]]) -> int:
@@ -110,6 +113,40 @@ def test_a_resume_drops_the_candidates_its_checkpoint_does_not_cover(tmp_path):
         ValidatedBest.load(path, 20_000, V + 1, "env_steps", upto=None)
     fresh = ValidatedBest.load(tmp_path / "none.safetensors", 20_000, V, "env_steps", upto=None)
     assert fresh.rows == [] and fresh.best_state is None
+
+
+class ReturnEvaluator(ScriptedEvaluator):
+    """No episode succeeds; each candidate's episodes return a fixed reward, in order."""
+
+    def evaluate(self, genomes, episodes, config=None):
+        self.calls.append((list(genomes), list(episodes)))
+        reward = np.full((1, len(episodes)), float(self.successes.pop(0)))
+        none = np.zeros((1, len(episodes)), bool)
+        return EpisodeResults(reward, none, np.full((1, len(episodes)), 200))
+
+
+def test_ranked_by_return_the_keeper_keeps_the_best_mean_return_where_nothing_succeeds(tmp_path):
+    returns = [-900, -400, -700, -400, -1200]
+    by_return = ValidatedBest(20_000, V, "generation", by="return")
+    kept = [by_return.check(ReturnEvaluator(returns[g : g + 1]), g, g, {"g": g}) for g in range(5)]
+    assert kept == [True, True, False, True, False]  # the later one on a tie, as by successes
+    assert by_return.best_state == {"g": 3} and by_return.summary()["kept_mean_return"] == -400
+    assert [r["mean_return"] for r in by_return.rows] == returns
+    # ranked by successes, every candidate ties at 0 and the last one is returned
+    by_successes = ValidatedBest(20_000, V, "generation")
+    for g in range(5):
+        by_successes.check(ReturnEvaluator(returns[g : g + 1]), g, g, {"g": g})
+    assert by_successes.best_state == {"g": 4} and by_successes.summary()["by"] == "successes"
+    path = tmp_path / STATE_FILE
+    by_return.save(path)
+    back = ValidatedBest.load(path, 20_000, V, "generation", upto=None, by="return")
+    assert back.rows == by_return.rows and back.best_state == {"g": 3}
+    with pytest.raises(CheckpointError, match="ranks candidates by return, not successes"):
+        ValidatedBest.load(path, 20_000, V, "generation", upto=None)
+    with pytest.raises(ConfigError, match="validation_score='best'"):
+        ValidatedBest(20_000, V, "generation", by="best")
+    with pytest.raises(ConfigError, match="evaluation.validation_score='best'"):
+        from_dict(GrnConfig, {"evaluation": {"validation_score": "best"}})
 
 
 @pytest.mark.parametrize("seed", [TEST.first, TEST.first + 12_345, 5, 2_000_000])
@@ -156,6 +193,20 @@ def test_the_grn_returns_the_validated_best_and_trains_as_with_last(tmp_path):
     a = np.load(tmp_path / "validated" / "best_genome.npz")
     b = np.load(tmp_path / "last" / "best_genome.npz")
     assert any(a[k].tobytes() != b[k].tobytes() for k in a.files if k != "__meta__")
+
+
+def test_the_grn_ranked_by_return_keeps_the_best_mean_validation_return(tmp_path):
+    cfg = fake_config(
+        seed=0,
+        evolution=VALIDATED,
+        evaluation={"episodes": 3, "validation_episodes": V, "validation_score": "return"},
+    )
+    summary = evolve_run(cfg, tmp_path / "run", progress=False)
+    with open(tmp_path / "run" / "validation.csv") as fh:
+        returns = [float(r["mean_return"]) for r in csv.DictReader(fh)]
+    kept = max(i for i, r in enumerate(returns) if r == max(returns))
+    assert summary["return_rule"]["by"] == "return" and summary["return_rule"]["kept_at"] == kept
+    assert summary["return_rule"]["kept_mean_return"] == pytest.approx(returns[kept])
 
 
 def _same_genome(a, b) -> bool:
@@ -262,8 +313,8 @@ def scripted(monkeypatch):
         scored.append((candidate, list(self.episodes)))
         return score(self, evaluator, candidate, config)
 
-    def scripted_offer(self, at, successes, state, env_steps=0, seconds=0.0):
-        return offer(self, at, script.get(at, successes), state, env_steps, seconds)
+    def scripted_offer(self, at, successes, state, env_steps=0, seconds=0.0, mean_return=0.0):
+        return offer(self, at, script.get(at, successes), state, env_steps, seconds, mean_return)
 
     def spy_evaluate(self, genomes, episodes, **kw):
         evaluated.append(list(episodes))

@@ -374,12 +374,23 @@ class EvaluationConfig:
         "first seed of those episodes (episode i resets with derive(seed, i)); must lie in the "
         "validation range 10000..999999 (SPEC §6)",
     )
+    validation_score: str = doc(
+        "successes",
+        "evolution.keep validated: what ranks the candidates, successes (the most validation "
+        "successes, the later on a tie) or return (the highest mean validation return: for "
+        "tasks where success is rare or undefined, e.g. Pendulum, on which every candidate "
+        "ties at 0 successes and successes returns the last one)",
+    )
 
     def validate(self) -> None:
         _check_range("episodes", self.episodes, 1)
         _check_range("noisy_fraction", self.noisy_fraction, 0.0, 1.0)
         _check_range("validation_episodes", self.validation_episodes, 1)
         require_validation(self.validation_seed, 1, "evaluation.validation_seed")
+        if self.validation_score not in ("successes", "return"):
+            raise ConfigError(
+                f"evaluation.validation_score={self.validation_score!r}: use successes or return"
+            )
         _check_range("visual_noise", self.visual_noise, 0.0)
         _check_range("test_episodes", self.test_episodes, 1)
         _check_range("lockstep", self.lockstep, 1)

@@ -148,7 +148,9 @@ class Evolution:
         episodes, the one with the most successes kept (:mod:`evodevo.grn.return_rule`)."""
         if config.evolution.keep == VALIDATED:
             ev = config.evaluation
-            self.validated = ValidatedBest(ev.validation_seed, ev.validation_episodes, "generation")
+            self.validated = ValidatedBest(
+                ev.validation_seed, ev.validation_episodes, "generation", ev.validation_score
+            )
 
     @property
     def done(self) -> bool:
@@ -442,6 +444,7 @@ class Evolution:
                 ev.validation_episodes,
                 "generation",
                 upto=self.generation - 1,
+                by=ev.validation_score,
             )
 
 

@@ -11,7 +11,9 @@ Three rules, chosen per run (GRN: ``evolution.keep``; Kuka baselines: ``keep.rul
   generation's best by training fitness (GRN, NEAT), a snapshot every ``N`` env steps and the
   final model (PPO, TD3; ``N`` spreads ``keep.candidates`` over the step budget). On a tie the
   later candidate is kept, so a rule that cannot tell the candidates apart returns what
-  ``last`` returns.
+  ``last`` returns. On a task where success is rare or undefined (Pendulum) every candidate
+  ties at 0 successes; ``evaluation.validation_score: return`` ranks the candidates by their
+  mean validation return instead (GRN runs; the default ``successes`` is the rule above).
 
 The validation episodes are clean, on **training objects**, and reset with
 ``derive(evaluation.validation_seed, i)``, ``i < evaluation.validation_episodes``: the same for
@@ -60,6 +62,7 @@ if TYPE_CHECKING:
 __all__ = [
     "RULES",
     "VALIDATED",
+    "SCORES",
     "STATE_FILE",
     "CSV_FILE",
     "CSV_FIELDS",
@@ -76,6 +79,8 @@ __all__ = [
 VALIDATED = "validated"
 RULES = ("last", "record", VALIDATED)
 """Every model-return rule; ``record`` needs a population's lifetime records (the GRN)."""
+SCORES = ("successes", "return")
+"""What ``validated`` ranks candidates by: validation successes (default) or mean return."""
 STATE_FILE = "validation.safetensors"
 """The keeper's state, in the run's ``checkpoints/`` folder."""
 CSV_FILE = "validation.csv"
@@ -83,6 +88,7 @@ CSV_FIELDS = [
     "candidate",
     "at",
     "successes",
+    "mean_return",
     "episodes",
     "env_steps",
     "seconds",
@@ -122,22 +128,29 @@ def candidate_every(max_steps: int | None, candidates: int, every_steps: int | N
 
 
 class ValidatedBest:
-    """The candidate with the most validation successes so far (the later one on a tie).
+    """The candidate with the most validation successes so far (the later one on a tie), or
+    with ``by="return"`` the highest mean validation return.
 
     Args:
         first_seed: ``evaluation.validation_seed`` (a GRN-style first seed, hashed with the
             episode index, so it alone names the range: validation only).
         episodes: ``evaluation.validation_episodes``, scored per candidate.
         unit: what a candidate's position ``at`` counts ("generation" or "env_steps").
+        by: ``evaluation.validation_score``: "successes" or "return" (:data:`SCORES`).
     """
 
-    def __init__(self, first_seed: int, episodes: int, unit: str) -> None:
+    def __init__(self, first_seed: int, episodes: int, unit: str, by: str = "successes") -> None:
         require_validation(first_seed, 1, "evaluation.validation_seed")
         if episodes < 1:
             raise ConfigError(f"evaluation.validation_episodes={episodes} must be >= 1")
+        if by not in SCORES:
+            raise ConfigError(
+                f"evaluation.validation_score={by!r} is not one of {', '.join(SCORES)}"
+            )
         self.first_seed = int(first_seed)
         self.n = int(episodes)
         self.unit = unit
+        self.by = by
         self.episodes = validation_episodes(self.first_seed, self.n)
         self.rows: list[dict[str, Any]] = []
         """One per candidate: its index, position, successes and the kept one after it."""
@@ -173,11 +186,13 @@ class ValidatedBest:
 
     def score(
         self, evaluator: Any, candidate: Any, config: GrnConfig | None = None
-    ) -> tuple[int, int, float]:
-        """``candidate`` on the validation episodes: successes, env steps and seconds."""
+    ) -> tuple[int, int, float, float]:
+        """``candidate`` on the validation episodes: successes, env steps, seconds and the
+        mean episode return."""
         t0 = time.perf_counter()
         res = evaluator.evaluate([candidate], self.episodes, config=config)
-        return int(res.success.sum()), int(res.env_steps), time.perf_counter() - t0
+        mean_return = float(res.reward.mean())
+        return int(res.success.sum()), int(res.env_steps), time.perf_counter() - t0, mean_return
 
     def offer(
         self,
@@ -186,12 +201,20 @@ class ValidatedBest:
         state: Mapping[str, Any],
         env_steps: int = 0,
         seconds: float = 0.0,
+        mean_return: float = math.nan,
     ) -> bool:
-        """Count candidate ``at`` with ``successes`` (scored in ``env_steps`` and ``seconds``);
-        keep ``state`` if it has the most so far (ties go to this later candidate). Returns
-        whether it is kept."""
+        """Count candidate ``at`` with ``successes`` and ``mean_return`` (scored in
+        ``env_steps`` and ``seconds``); keep ``state`` if it has the most successes so far, or
+        with ``by="return"`` the highest mean return (ties go to this later candidate).
+        Returns whether it is kept."""
         best = self.best_row
-        keep = best is None or successes >= int(best["successes"])
+        if best is None:
+            keep = True
+        elif self.by == "return":
+            kept_return = best["mean_return"]
+            keep = kept_return is None or float(mean_return) >= float(kept_return)
+        else:
+            keep = successes >= int(best["successes"])
         if keep:
             self.kept.append((len(self.rows), dict(state)))
         kept = self.rows[self.kept[-1][0]] if not keep else None
@@ -199,6 +222,7 @@ class ValidatedBest:
             "candidate": len(self.rows),
             "at": int(at),
             "successes": int(successes),
+            "mean_return": None if math.isnan(mean_return) else float(mean_return),
             "episodes": self.n,
             "env_steps": int(env_steps),
             "seconds": float(seconds),
@@ -217,8 +241,8 @@ class ValidatedBest:
         config: GrnConfig | None = None,
     ) -> bool:
         """:meth:`score` then :meth:`offer`: whether ``candidate`` is now the kept one."""
-        successes, env_steps, seconds = self.score(evaluator, candidate, config)
-        return self.offer(at, successes, state, env_steps, seconds)
+        successes, env_steps, seconds, mean_return = self.score(evaluator, candidate, config)
+        return self.offer(at, successes, state, env_steps, seconds, mean_return)
 
     def prune(self, upto: int | None = None) -> list[dict[str, Any]]:
         """Forget superseded states no resume can need; returns them (e.g. files to delete).
@@ -250,6 +274,7 @@ class ValidatedBest:
                 "first_seed": self.first_seed,
                 "episodes": self.n,
                 "unit": self.unit,
+                "by": self.by,
                 "rows": self.rows,
                 "kept": [[row, state] for row, state in self.kept],
             },
@@ -257,7 +282,13 @@ class ValidatedBest:
 
     @classmethod
     def load(
-        cls, path: str | Path, first_seed: int, episodes: int, unit: str, upto: int | None
+        cls,
+        path: str | Path,
+        first_seed: int,
+        episodes: int,
+        unit: str,
+        upto: int | None,
+        by: str = "successes",
     ) -> ValidatedBest:
         """The keeper saved at ``path``, without the candidates after position ``upto``.
 
@@ -267,10 +298,15 @@ class ValidatedBest:
         Raises:
             CheckpointError: the file is unreadable or was written for other episodes.
         """
-        keeper = cls(first_seed, episodes, unit)
+        keeper = cls(first_seed, episodes, unit, by)
         if not Path(path).is_file():
             return keeper
         data = load_state(path, _KIND, "validation state", "delete it to validate again")
+        if data.get("by", "successes") != by:
+            raise CheckpointError(
+                f"validation state {str(path)!r} ranks candidates by {data.get('by', 'successes')}, "
+                f"not {by}; resume with the run's own config"
+            )
         if (data.get("first_seed"), data.get("episodes"), data.get("unit")) != (
             keeper.first_seed,
             keeper.n,
@@ -281,7 +317,7 @@ class ValidatedBest:
                 f"episodes from seed {data.get('first_seed')}, not {keeper.n} from "
                 f"{keeper.first_seed}; resume with the run's own config"
             )
-        rows = [dict(r) for r in data["rows"]]
+        rows: list[dict[str, Any]] = [{"mean_return": None} | dict(r) for r in data["rows"]]
         keep = len([r for r in rows if upto is None or int(r["at"]) <= upto])
         keeper.rows = rows[:keep]
         keeper.kept = [(int(row), dict(state)) for row, state in data["kept"] if int(row) < keep]
@@ -311,6 +347,8 @@ class ValidatedBest:
             "validation_s": self.wall_s,
             "kept_at": None if best is None else int(best["at"]),
             "kept_successes": None if best is None else int(best["successes"]),
+            "by": self.by,
+            "kept_mean_return": None if best is None else best["mean_return"],
         }
 
 
