@@ -3,15 +3,33 @@
 # was registered at (a git worktree per commit, beside the checkout), into this folder.
 # Resumable: run it again and finished runs are skipped, interrupted ones resume from their
 # checkpoints. Usage (from the repository root): bash docs/results/claims/run_experiments.sh [E1|E2 ...]
+#
+# Two lanes may run at once (2026-12-07: the PPO and NEAT runs use one core of two): every run,
+# chunk of seeds, table and worktree is done under a lock in logs/locks/, and a lane that finds a
+# run locked skips it (the other lane is doing it). Start the second lane in the idle scheduling
+# class so that it only uses a core the first leaves free and the first lane's wall times stay
+# those of a machine to itself:  chrt -i 0 bash docs/results/claims/run_experiments.sh E2 E4 E5 E3B
+# Run the script once more after both lanes finish: it skips every finished run and fills in
+# what a lane skipped (a test or table whose run the other lane still held).
 set -euo pipefail
 root=$(git rev-parse --show-toplevel)
 cd "$root"
 py="$root/.venv/bin/python"
 out=docs/results/claims
+locks="$root/logs/locks"
+mkdir -p "$locks"
+
+with_lock() {  # with_lock KEY CMD...: run CMD holding KEY's lock; skip it when the other lane holds it
+  local key=$1; shift
+  (
+    flock -n 9 || { echo "-- skipped, the other lane holds it: $key"; exit 0; }
+    "$@"
+  ) 9>"$locks/${key//\//_}.lock"
+}
 
 code_at() {  # the worktree of commit $1 (created once)
   local wt="$root/../wt-$1"
-  [ -d "$wt" ] || git worktree add -q "$wt" "$1"
+  ( flock 9; [ -d "$wt" ] || git worktree add -q "$wt" "$1" ) 9>"$locks/worktrees.lock"
   echo "$wt/src"
 }
 
@@ -21,14 +39,28 @@ p = Path(sys.argv[1]) / "summary.json"; sys.exit(0 if p.is_file() and finished(p
 }
 
 decide() {  # decide g1: the experiment's tables from its runs so far (analysis: this checkout's code)
+  with_lock "decide-$1" _decide "$1"
+}
+
+_decide() {
   "$py" -m evodevo compare experiment "$out/$1.yaml" > /dev/null || echo "decide $1: no table yet"
 }
 
 report() {  # report DIR...: redraw each biarm compare folder's tables (analysis: this checkout's code)
-  local d; for d in "$@"; do "$py" -m evodevo biarm report "$d" > /dev/null || echo "report $d failed"; done
+  local d; for d in "$@"; do with_lock "${d%/}" _report "$d"; done
 }
 
-compare() {  # compare SRC ARGS...: biarm compare with the code of SRC
+_report() {
+  "$py" -m evodevo biarm report "$1" > /dev/null || echo "report $1 failed"
+}
+
+compare() {  # compare SRC ARGS... --out DIR ...: biarm compare with the code of SRC (one at a time per DIR)
+  local dir="" prev="" a
+  for a in "$@"; do [ "$prev" = --out ] && dir=$a; prev=$a; done
+  with_lock "${dir%/}" _compare "$@"
+}
+
+_compare() {
   local src=$1; shift
   PYTHONPATH="$src" nice -n 10 "$py" -m evodevo biarm compare --workers 2 --quiet "$@"
 }
@@ -61,6 +93,10 @@ e3a() {  # the lateral scale of E3 (selection seeds 100-102; never reported)
 }
 
 grn_arm() {  # grn_arm SRC ARM SEED ARGS...: evolve (resuming) and test on the locked range
+  with_lock "$out/regulation/${2}_s$3" _grn_arm "$@"
+}
+
+_grn_arm() {
   local src=$1 arm=$2 seed=$3; shift 3
   local run="$out/regulation/${arm}_s$seed"
   if ! done_run "$run"; then
@@ -93,14 +129,9 @@ g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
     grn_arm "$src" grn "$seed" --keep validated
     grn_arm "$src" blind "$seed" --keep validated --blind
     for m in ppo neat; do
-      local run="$out/regulation/${m}_s$seed"
-      if ! done_run "$run"; then
-        local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
-        PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
-          --config "${src%/src}/configs/baselines_kuka_vision.yaml" --set keep.rule=validated \
-          --budget-from "$out/regulation/grn_s$seed" --workers 2 --quiet "${resume[@]}" --out "$run"
-      fi
-      locked_test "$src" "$run"
+      sb3_arm "$src" "$out/regulation/${m}_s$seed" --method "$m" --seed "$seed" \
+        --config "${src%/src}/configs/baselines_kuka_vision.yaml" --set keep.rule=validated \
+        --budget-from "$out/regulation/grn_s$seed" --workers 2 --quiet
     done
   done
   decide g3
@@ -111,14 +142,19 @@ g4() {  # G1's GRN runs tested with noise on the visual features (SPEC §2.5), l
   for seed in 0 1 2 3 4 5 6 7; do
     local run="$out/regulation/grn_s$seed"
     done_run "$run" || grn_arm "$src" grn "$seed" --keep validated
-    if [ ! -f "$run/test_locked_noisy.json" ]; then
-      PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
-        --objects test --noise 0.03 --test-seed 1000000 --no-baselines --workers 2 --json \
-        > "$run/test_locked_noisy.json.part"
-      mv "$run/test_locked_noisy.json.part" "$run/test_locked_noisy.json"
-    fi
+    if done_run "$run"; then with_lock "$run" noisy_test "$src" "$run"; fi
   done
   decide g4
+}
+
+noisy_test() {  # noisy_test SRC RUN: G4's test with noise on the visual features, once
+  local src=$1 run=$2
+  if [ ! -f "$run/test_locked_noisy.json" ]; then
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn evaluate "$run" --test-episodes 200 \
+      --objects test --noise 0.03 --test-seed 1000000 --no-baselines --workers 2 --json \
+      > "$run/test_locked_noisy.json.part"
+    mv "$run/test_locked_noisy.json.part" "$run/test_locked_noisy.json"
+  fi
 }
 
 g5() {  # the neuromodulated GRN of SPEC §5 beside G1's plain one
@@ -156,20 +192,32 @@ g2() {  # the memory task: evolved arms, then the SB3 arms on the same env-step 
     mem_arm "$src" restarted "$seed" "${base[@]}" --set dynamics.restart=true
     mem_arm "$src" linear "$seed" "${base[@]}" --controller linear
     for m in recurrent_ppo ppo; do
-      local run="$out/memory/${m}_s$seed"
-      if ! done_run "$run"; then
-        local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
-        PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka --method "$m" --seed "$seed" \
-          --config "${src%/src}/configs/baselines_kuka_memory.yaml" --set keep.rule=validated \
-          --budget-from "$out/memory/carried_s$seed" --quiet "${resume[@]}" --out "$run"
-      fi
-      locked_test "$src" "$run"
+      sb3_arm "$src" "$out/memory/${m}_s$seed" --method "$m" --seed "$seed" \
+        --config "${src%/src}/configs/baselines_kuka_memory.yaml" --set keep.rule=validated \
+        --budget-from "$out/memory/carried_s$seed" --quiet
     done
   done
   decide g2
 }
 
+sb3_arm() {  # sb3_arm SRC RUN ARGS...: train a Kuka baseline (resuming), then the locked test
+  with_lock "$2" _sb3_arm "$@"
+}
+
+_sb3_arm() {
+  local src=$1 run=$2; shift 2
+  if ! done_run "$run"; then
+    local resume=(); [ -f "$run/config.json" ] && resume=(--resume)
+    PYTHONPATH="$src" nice -n 10 "$py" -m evodevo baselines kuka "$@" "${resume[@]}" --out "$run"
+  fi
+  locked_test "$src" "$run"
+}
+
 mem_arm() {  # mem_arm SRC ARM SEED ARGS...: evolve on the memory task, then the locked test
+  with_lock "$out/memory/${2}_s$3" _mem_arm "$@"
+}
+
+_mem_arm() {
   local src=$1 arm=$2 seed=$3; shift 3
   local run="$out/memory/${arm}_s$seed"
   if ! done_run "$run"; then
@@ -236,6 +284,10 @@ g7() {  # neuromodulated vs plain GRN beyond Kuka on fresh seeds (GENERAL's code
 }
 
 general_arm() {  # general_arm SRC DIR ENV KIND SEED: evolve (resuming), then 40 locked-range test episodes
+  with_lock "$2/${3}_${4}_s$5" _general_arm "$@"
+}
+
+_general_arm() {
   local src=$1 dir=$2 env=$3 kind=$4 seed=$5
   local run="$dir/${env}_${kind}_s$seed" extra=()
   [ "$env" = mountaincar ] && extra=(--generations 8 --episodes 5)
