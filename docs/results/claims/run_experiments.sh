@@ -329,22 +329,29 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
 
 # Each experiment runs in a subshell that stops at its first failure; a failed experiment is
 # reported and the queue goes on with the next one (its runs are retried on the next call).
-failed=()
-for e in "${@:-E1 E3A RETEST GENERAL G7 G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
-  for x in $e; do
-    echo "== $x $(date -u +%FT%TZ)"
-    set +e
-    ( set -e; "${x,,}" )
-    rc=$?
-    set -e
-    if [ "$rc" -ne 0 ]; then
-      echo "== $x FAILED (exit $rc) $(date -u +%FT%TZ); going on with the next experiment"
-      failed+=("$x")
-    fi
+main() {
+  failed=()
+  for e in "${@:-E1 E3A RETEST GENERAL G7 G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
+    for x in $e; do
+      echo "== $x $(date -u +%FT%TZ)"
+      set +e
+      ( set -e; "${x,,}" )
+      rc=$?
+      set -e
+      if [ "$rc" -ne 0 ]; then
+        echo "== $x FAILED (exit $rc) $(date -u +%FT%TZ); going on with the next experiment"
+        failed+=("$x")
+      fi
+    done
   done
-done
-if [ "${#failed[@]}" -gt 0 ]; then
-  echo "== failed: ${failed[*]}"
-  exit 1
+  if [ "${#failed[@]}" -gt 0 ]; then
+    echo "== failed: ${failed[*]}"
+    exit 1
+  fi
+  echo "== all done $(date -u +%FT%TZ)"
+}
+
+# Sourced (tests/test_run_experiments.py), it only defines the functions.
+if [ "${BASH_SOURCE[0]}" = "$0" ]; then
+  main "$@"
 fi
-echo "== all done $(date -u +%FT%TZ)"

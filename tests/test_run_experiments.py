@@ -1,0 +1,85 @@
+"""The claims queue (docs/results/claims/run_experiments.sh): its locks and its experiment list.
+
+Two lanes of the queue may run at once; a lock per run keeps them off each other's runs. These
+tests source the script (which then only defines its functions) and never train anything.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "docs" / "results" / "claims" / "run_experiments.sh"
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("flock") is None or shutil.which("git") is None, reason="needs flock and git"
+)
+
+
+def _bash(code: str, locks: Path) -> subprocess.CompletedProcess[str]:
+    """Source the script, point its locks at LOCKS and run CODE."""
+    script = f'source "{SCRIPT}"; locks="{locks}"; set +e; {code}'
+    return subprocess.run(
+        ["bash", "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=60
+    )
+
+
+def test_the_script_parses():
+    proc = subprocess.run(["bash", "-n", str(SCRIPT)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_a_free_lock_runs_the_command_and_a_held_one_skips_it(tmp_path):
+    free = _bash("with_lock a/run_s0 echo ran", tmp_path)
+    assert free.returncode == 0, free.stderr
+    assert free.stdout.strip() == "ran"
+    assert (tmp_path / "a_run_s0.lock").is_file()
+
+    held = _bash(
+        f'( flock 9; with_lock a/run_s0 echo ran; echo "rc=$?" ) 9>"{tmp_path}/a_run_s0.lock"',
+        tmp_path,
+    )
+    assert held.returncode == 0, held.stderr
+    assert "ran" not in held.stdout.replace("rc=", "")
+    assert "skipped, the other lane holds it: a/run_s0" in held.stdout
+    assert "rc=0" in held.stdout
+
+
+def test_a_failing_command_under_a_lock_fails_the_caller(tmp_path):
+    proc = _bash('with_lock k false; echo "rc=$?"', tmp_path)
+    assert "rc=1" in proc.stdout
+
+
+def test_compare_locks_its_output_folder(tmp_path):
+    """Two lanes never run ``biarm compare`` into one folder at once (it rewrites its tables)."""
+    proc = _bash(
+        f'( flock 9; compare SRC --variants pnn --seeds 0-1 --out x/v1/ ) 9>"{tmp_path}/x_v1.lock"',
+        tmp_path,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "skipped, the other lane holds it: x/v1" in proc.stdout
+
+
+def test_every_queued_experiment_is_a_function_and_every_decision_has_its_file():
+    text = SCRIPT.read_text()
+    default = re.search(r'"\$\{@:-([A-Z0-9 ]+)\}"', text)
+    assert default is not None
+    names = default.group(1).split()
+    assert {"E1", "G3", "E3B"} <= set(names)
+    proc = subprocess.run(
+        ["bash", "-c", f'source "{SCRIPT}"; declare -F {" ".join(n.lower() for n in names)}'],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    decided = set(re.findall(r"^\s*decide (\w+)$", text, flags=re.M))
+    assert {"g1", "g3", "e2"} <= decided
+    for name in decided:
+        assert (SCRIPT.parent / f"{name}.yaml").is_file(), name
