@@ -8,22 +8,11 @@ import shutil
 import pytest
 from test_biarm_resume import Killed, _kill_at, strip_timing, tiny
 
-from evodevo.callbacks import Callback
+from evodevo.callbacks import FunctionCallback
 from evodevo.errors import EvodevoError
 from evodevo.neuromod import train
 from evodevo.neuromod.compare import run_dir_name, run_grid
 from evodevo.runs import RunDir
-
-
-class EpisodeCallback(Callback):
-    """A callback that calls ``fn`` after every training episode."""
-
-    def __init__(self, fn):
-        self.fn = fn
-
-    def on_episode(self, info):
-        self.fn(info)
-
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
@@ -47,7 +36,7 @@ def test_grid_on_ray_equals_local_and_resumes_partial_runs(tmp_path):
     shutil.copytree(local / "runs" / "pnn__s0", ray_root / "runs" / "pnn__s0")
     cut = ray_root / "runs" / "biarm__s0"
     with pytest.raises(Killed):
-        train(cfg, "biarm", 0, cut, callback=EpisodeCallback(_kill_at(1, 3)))
+        train(cfg, "biarm", 0, cut, callback=FunctionCallback(on_episode=_kill_at(1, 3)))
     assert (cut / "checkpoints" / "task1_ep2.safetensors").is_file()
     done = run_grid(cfg, variants, seeds, ray_root, workers=2, backend="ray")
     assert sorted(done) == sorted(

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from evodevo.callbacks import Callback
+from evodevo.callbacks import FunctionCallback
 from evodevo.config import from_dict
 from evodevo.neuromod import load_agent, train
 from evodevo.neuromod.checkpoint import load_checkpoint
@@ -18,17 +18,6 @@ from evodevo.neuromod.config import MODULE_NAMES, BiarmConfig
 from evodevo.neuromod.lr_modulation import effective_lr
 from evodevo.neuromod.trainer import TIMING_KEYS
 from evodevo.runs import RunDir
-
-
-class EpisodeCallback(Callback):
-    """A callback that calls ``fn`` after every training episode."""
-
-    def __init__(self, fn):
-        self.fn = fn
-
-    def on_episode(self, info):
-        self.fn(info)
-
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
@@ -108,7 +97,7 @@ def test_resume_after_kill_gives_same_summary(tmp_path):
             raise Killed
 
     with pytest.raises(Killed):
-        train(tiny(), "biarm", 2, tmp_path / "cut", callback=EpisodeCallback(kill))
+        train(tiny(), "biarm", 2, tmp_path / "cut", callback=FunctionCallback(on_episode=kill))
     assert (tmp_path / "cut" / "checkpoints" / "task0.safetensors").is_file()
     assert not (tmp_path / "cut" / "summary.json").exists()
     resumed = train(tiny(), "biarm", 2, tmp_path / "cut", resume=True)
@@ -202,7 +191,7 @@ def test_resume_at_a_later_task_boundary_gives_the_same_weights(tmp_path, varian
             raise Killed
 
     with pytest.raises(Killed):
-        train(cfg, variant, 0, tmp_path / "cut", callback=EpisodeCallback(kill))
+        train(cfg, variant, 0, tmp_path / "cut", callback=FunctionCallback(on_episode=kill))
     train(cfg, variant, 0, tmp_path / "cut", resume=True)
     a = load_checkpoint(tmp_path / "full" / "checkpoints" / "task2.safetensors")["agent"]["net"]
     b = load_checkpoint(tmp_path / "cut" / "checkpoints" / "task2.safetensors")["agent"]["net"]

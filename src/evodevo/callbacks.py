@@ -15,14 +15,20 @@ truth.
 >>> CallbackList([Steps(), Callback()]).on_steps(64)
 >>> seen
 [64]
+
+A plain function serves as well (here on the BIARM trainer's episodes, e.g. to log them elsewhere):
+
+>>> CallbackList([FunctionCallback(on_episode=seen.append)]).on_episode("episode info")
+>>> seen
+[64, 'episode info']
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
-__all__ = ["Callback", "CallbackList"]
+__all__ = ["Callback", "CallbackList", "FunctionCallback"]
 
 
 class Callback:
@@ -93,3 +99,25 @@ class CallbackList(Callback):
     def on_end(self) -> None:
         for c in self.callbacks:
             c.on_end()
+
+
+class FunctionCallback(Callback):
+    """Plain functions as callbacks, by event name: ``FunctionCallback(on_episode=fn)`` calls
+    ``fn(info)`` after every BIARM training episode; the events not named do nothing.
+
+    Raises:
+        TypeError: a name that is not an event of :class:`Callback` (``on_task``,
+            ``on_episode``, ``on_steps``, ``on_curve_row``, ``on_generation``, ``on_end``).
+    """
+
+    EVENTS = ("on_task", "on_episode", "on_steps", "on_curve_row", "on_generation", "on_end")
+
+    def __init__(self, **functions: Callable[..., Any]) -> None:
+        unknown = sorted(set(functions) - set(self.EVENTS))
+        if unknown:
+            raise TypeError(
+                f"FunctionCallback: unknown event(s) {', '.join(unknown)}; the events are "
+                f"{', '.join(self.EVENTS)}"
+            )
+        for name, fn in functions.items():
+            setattr(self, name, fn)
