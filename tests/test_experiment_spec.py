@@ -75,7 +75,7 @@ def test_missing_runs_read_pending_with_the_numbers_so_far(tmp_path: Path) -> No
     _fill(tmp_path, [160, 150, 170], [100, 104, 98])
     res = decide_experiment(*load_experiment(_spec(tmp_path)))
     assert not res.complete
-    assert res.reading.startswith("pending (3 of 8 runs")
+    assert res.reading == "pending (runs so far of the 8 registered per arm: a 3, b 3)"
     assert res.decision[0].n == 3
 
 
@@ -298,7 +298,7 @@ def test_value_metric_reads_a_cell_of_a_run_scores_table(tmp_path: Path) -> None
     res = decide_experiment(*load_experiment(spec))
     assert res.arms["pnn"].seeds == [0, 1, 2, 3, 4]
     assert res.decision[0].mean_diff == pytest.approx(0.2)
-    assert res.reading.startswith("pending (5 of 8 runs")
+    assert res.reading == "pending (runs so far of the 8 registered per arm: biarm 8, pnn 5)"
 
 
 def test_claim_groups_read_once_per_group_under_one_holm_family(tmp_path: Path) -> None:

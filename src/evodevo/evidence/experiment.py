@@ -380,7 +380,6 @@ def decide_experiment(spec: ExperimentSpec, root: Path) -> ExperimentResult:
     decision = holm_table(found) if found else []
     beside = [c for t in spec.beside if (c := _compare(spec, arms, t, "beside")) is not None]
     in_decision = {a for t in spec.decision for a in spec.pair(t)}
-    have = min(len(arms[a].seeds) for a in in_decision)
     complete = len(decision) == len(spec.decision) and all(
         len(arms[a].seeds) == n_reg for a in in_decision
     )
@@ -393,5 +392,6 @@ def decide_experiment(spec: ExperimentSpec, root: Path) -> ExperimentResult:
             found_readings.append(f"{group}: {r}" if group else r)
         reading = "; ".join(found_readings)
     else:
-        reading = f"pending ({have} of {n_reg} runs in every arm of the decision)"
+        counts = ", ".join(f"{a} {len(arms[a].seeds)}" for a in spec.arms if a in in_decision)
+        reading = f"pending (runs so far of the {n_reg} registered per arm: {counts})"
     return ExperimentResult(spec, test, arms, decision, beside, complete, reading, n_reg)
