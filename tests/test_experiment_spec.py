@@ -335,3 +335,27 @@ def test_an_untrained_reference_tested_once_stands_beside_every_seed(tmp_path: P
     text = md.read_text()
     assert "| turn | one test | (untrained) |" in text and "| 105 / 200 |" in text
     assert "turn,,105,200,52.5" in (md.parent / "runs.csv").read_text()
+
+
+def test_run_columns_describe_the_runs_beside_the_arm_table(tmp_path: Path) -> None:
+    """G3 reports each arm's training wall time beside its table: a run column."""
+    _fill(tmp_path, [160, 150, 170], [100, 104, 98])
+    for arm, seed, wall in (("a", 0, 60.0), ("a", 1, 120.0), ("b", 0, 30.0)):
+        (tmp_path / "runs" / f"{arm}_s{seed}" / "summary.json").write_text(
+            json.dumps({"wall_s": wall})
+        )
+    spec = _spec(tmp_path, run_columns={"wall (s)": "summary.json#wall_s"})
+    res = decide_experiment(*load_experiment(spec))
+    assert res.arms["a"].columns == {"wall (s)": {0: 60.0, 1: 120.0}}  # seed 2 has no summary
+    assert res.arms["b"].columns == {"wall (s)": {0: 30.0}}
+    md = write_experiment(spec).read_text()
+    assert "| wall (s): mean [min, max] |" in md
+    assert "| 90 [60, 120] |" in md and "| 30 [30, 30] |" in md
+    runs = (tmp_path / "runs" / "t1" / "runs.csv").read_text().splitlines()
+    assert runs[0].endswith(",wall (s)") and runs[1].endswith(",60.0") and runs[3].endswith(",")
+
+
+@pytest.mark.parametrize("where", ["summary.json", "#wall_s", "a_s{seed}/summary.json#wall_s"])
+def test_a_run_column_must_name_a_key_in_a_file_of_the_run(tmp_path: Path, where: str) -> None:
+    with pytest.raises(ConfigError, match="run_columns.wall"):
+        load_experiment(_spec(tmp_path, run_columns={"wall": where}))

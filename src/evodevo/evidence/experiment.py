@@ -129,6 +129,12 @@ class ExperimentSpec:
         "higher", "What the decision supports: a higher (by more than δ), or a within δ of b."
     )
     target: float | None = doc(None, "A goal for an arm's pooled success, in points (or none).")
+    run_columns: dict[str, str] = doc(
+        {},
+        "Descriptive columns beside the arm table: label -> FILE#key.path in each run's folder "
+        "(the folder of the arm's result file), e.g. 'training wall time (s)': "
+        "summary.json#wall_s; mean [min, max] over the runs that have it. Decides nothing.",
+    )
     reps: int = doc(DEFAULT_REPS, "Bootstrap resamples of every interval.")
 
     def validate(self) -> None:
@@ -172,6 +178,13 @@ class ExperimentSpec:
             raise ConfigError(f"delta: {self.delta} must be > 0")
         if self.reps < 1:
             raise ConfigError(f"reps: {self.reps} must be >= 1")
+        for label, where in self.run_columns.items():
+            file, _, key = where.partition("#")
+            if not file or not key or "{seed}" in where or "/" in file:
+                raise ConfigError(
+                    f"run_columns.{label}: {where!r} must be FILE#key.path inside a run's "
+                    "folder, e.g. summary.json#wall_s"
+                )
         try:
             parse_seeds(self.seeds, "seeds")
         except EvodevoError as exc:
@@ -229,6 +242,8 @@ class ArmScores:
     beside every run seed; its successes and episodes are that one test's."""
     successes: list[int] = field(default_factory=list)
     episodes: list[int] = field(default_factory=list)
+    columns: dict[str, dict[int, float]] = field(default_factory=dict)
+    """``run_columns``: label -> {seed: value} of the runs whose file has it."""
 
     def score(self, seed: int) -> float:
         """The score of the run of ``seed`` (success in points, or the value read)."""
@@ -272,6 +287,7 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
                 scores.values.append(value)
             scores.seeds.append(seed)
             tests.setdefault(test, str(path))
+            scores.columns = _run_columns(spec, path.parent, scores)
         arms[name] = scores
     if len(tests) > 1:
         listed = "; ".join(f"{t} in {p}" for t, p in tests.items())
@@ -287,6 +303,25 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
             "run the experiment's runs first"
         )
     return arms, next(iter(tests))
+
+
+def _run_columns(spec: ExperimentSpec, run: Path, scores: ArmScores) -> dict[str, dict[int, float]]:
+    """``scores.columns`` with the ``run_columns`` of the run in folder ``run`` (its last seed)
+    added; a file or key the run does not have leaves its cell out."""
+    seed = scores.seeds[-1]
+    columns = scores.columns
+    for label, where in spec.run_columns.items():
+        file, _, key = where.partition("#")
+        path = run / file
+        if not path.is_file():
+            continue
+        try:
+            got = read_value(path, key, None)
+        except EvodevoError:
+            continue
+        if got is not None:
+            columns.setdefault(label, {})[seed] = got[0]
+    return columns
 
 
 @dataclass

@@ -28,6 +28,18 @@ def _f(v: float | None, digits: int = 1) -> str:
     return "—" if v is None else f"{v:.{digits}f}"
 
 
+def _column_cell(values: Mapping[int, float]) -> str:
+    """``mean [min, max]`` of a descriptive run column, or —."""
+    if not values:
+        return "—"
+
+    def num(x: float) -> str:  # whole numbers from 100 up, else three significant figures
+        return f"{x:.0f}" if abs(x) >= 100 else f"{x:.3g}"
+
+    v = list(values.values())
+    return f"{num(sum(v) / len(v))} [{num(min(v))}, {num(max(v))}]"
+
+
 def _test_words(res: ExperimentResult) -> str:
     if res.spec.metric == "success":
         objects, first, n = res.test
@@ -54,14 +66,19 @@ def markdown(res: ExperimentResult) -> str:
         "",
     ]
     target = f" pooled ≥ {spec.target:g} % |" if success and spec.target is not None else ""
+    extra = "".join(f" {label}: mean [min, max] |" for label in spec.run_columns)
+    extra_rule = "---:|" * len(spec.run_columns)
     if success:
         lines += [
             "| arm | runs | seeds | mean success over runs [95 % CI] | pooled successes | "
-            "pooled success [Wilson 95 %] |" + target,
-            "|---|---:|---|---:|---:|---:|" + ("---|" if target else ""),
+            "pooled success [Wilson 95 %] |" + target + extra,
+            "|---|---:|---|---:|---:|---:|" + ("---|" if target else "") + extra_rule,
         ]
     else:
-        lines += ["| arm | runs | seeds | mean over runs [95 % CI] |", "|---|---:|---|---:|"]
+        lines += [
+            "| arm | runs | seeds | mean over runs [95 % CI] |" + extra,
+            "|---|---:|---|---:|" + extra_rule,
+        ]
     digits = 1 if success else 2
     for r in res.arm_rows:
         row = (
@@ -76,7 +93,17 @@ def markdown(res: ExperimentResult) -> str:
         if target:
             reached = r["pooled"] is not None and r["pooled"] >= (spec.target or 0)
             row += " — |" if r["pooled"] is None else f" {'yes' if reached else 'no'} |"
+        arm = res.arms[r["arm"]]
+        for label in spec.run_columns:
+            row += f" {_column_cell(arm.columns.get(label, {}))} |"
         lines.append(row)
+    if spec.run_columns:
+        lines += [
+            "",
+            "The columns after the tests describe the runs ("
+            + "; ".join(f"{label}: `{where}`" for label, where in spec.run_columns.items())
+            + " in each run's folder) and decide nothing.",
+        ]
     lines += [
         "",
         "## The decision",
@@ -140,7 +167,7 @@ def write_experiment(spec_path: str | Path, out: str | Path | None = None) -> Pa
     ]  # fmt: skip
     atomic_write_text(folder / "comparisons.csv", _csv(comps))
     if spec.metric == "success":
-        runs = [
+        runs: list[dict[str, Any]] = [
             {"arm": a.name, "seed": s, "successes": k, "episodes": n, "success": v}
             for a in res.arms.values()
             for s, v, k, n in zip(
@@ -153,6 +180,10 @@ def write_experiment(spec_path: str | Path, out: str | Path | None = None) -> Pa
             for a in res.arms.values()
             for s, v in zip(a.seeds, a.values, strict=True)
         ]
+    for row in runs:
+        cols = res.arms[row["arm"]].columns
+        for label in spec.run_columns:
+            row[label] = cols.get(label, {}).get(row["seed"], "") if row["seed"] != "" else ""
     atomic_write_text(folder / "runs.csv", _csv(runs))
     plot_run_scores(
         {
