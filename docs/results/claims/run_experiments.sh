@@ -8,7 +8,7 @@
 # chunk of seeds, table and worktree is done under a lock in logs/locks/, and a lane that finds a
 # run locked skips it (the other lane is doing it). Start the second lane in the idle scheduling
 # class so that it only uses a core the first leaves free and the first lane's wall times stay
-# those of a machine to itself:  chrt -i 0 bash docs/results/claims/run_experiments.sh E2 E4 E5 E3B
+# those of a machine to itself:  chrt -i 0 bash docs/results/claims/run_experiments.sh E2 E2B E4 E5 E3B
 # Run the script once more after both lanes finish: it skips every finished run and fills in
 # what a lane skipped (a test or table whose run the other lane still held).
 set -euo pipefail
@@ -81,6 +81,36 @@ e2() {
     compare "$src" --protocol v1 --variants pnn --set "dqn.per_task=$eta" --seeds "$s" --out "$out/v1_eta"
   done
   decide e2
+}
+
+e2b() {  # E2b, only if E2 read biarm - clamped "different" with BIARM higher (claims.md)
+  if ! "$py" - "$out/e2/comparisons.csv" <<'PY'
+import csv, sys
+from pathlib import Path
+p = Path(sys.argv[1])
+rows = list(csv.DictReader(p.open())) if p.is_file() else []
+hit = [r for r in rows if r["family"] == "decision" and (r["a"], r["b"]) == ("biarm", "clamped")]
+ok = bool(hit) and int(hit[0]["n"]) == 10 and hit[0]["verdict"] == "different"
+sys.exit(0 if ok and float(hit[0]["mean_diff"]) > 0 else 1)
+PY
+  then
+    echo "E2b: not run (E2 is unfinished or did not read biarm - clamped 'different' with BIARM higher)"
+    return 0
+  fi
+  local old new arms=lr-only,gates-only chk="$out/v1_paths_identity"
+  old=$(code_at 491f493); new=$(code_at aae0582)
+  # the code clause: biarm seed 0 at 0.02 x the budget, at E2's commit and at the variants' one
+  compare "$old" --protocol v1 --episodes-scale 0.02 --variants biarm --seeds 0 --out "$chk/491f493"
+  compare "$new" --protocol v1 --episodes-scale 0.02 --variants biarm --seeds 0 --out "$chk/aae0582"
+  if ! cmp -s "$chk/491f493/runs/biarm__s0/metrics.csv" "$chk/aae0582/runs/biarm__s0/metrics.csv"; then
+    echo "E2b: biarm differs between 491f493 and aae0582: biarm and clamped re-run in v1_paths" \
+      "(point e2b.yaml's biarm and clamped arms at v1_paths/runs/)"
+    arms=lr-only,gates-only,biarm,clamped
+  fi
+  for s in 0-1 2-3 4-5 6-7 8-9; do
+    compare "$new" --protocol v1 --variants "$arms" --seeds "$s" --out "$out/v1_paths"
+  done
+  decide e2b
 }
 
 e3a() {  # the lateral scale of E3 (selection seeds 100-102; never reported)
@@ -331,7 +361,7 @@ e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0
 # reported and the queue goes on with the next one (its runs are retried on the next call).
 main() {
   failed=()
-  for e in "${@:-E1 E3A RETEST GENERAL G7 G3 G1 G4 E2 G6 E4 G5 E5 G2 E3B}"; do
+  for e in "${@:-E1 E3A RETEST GENERAL G7 G3 G1 G4 E2 E2B G6 E4 G5 E5 G2 E3B}"; do
     for x in $e; do
       echo "== $x $(date -u +%FT%TZ)"
       set +e
