@@ -77,13 +77,14 @@ def run(
         progress: one line per generation on stderr.
     """
     from evodevo.config import load_config, merge, parse_sets, to_dict
-    from evodevo.grn.config import GrnConfig, vision_preset
+    from evodevo.grn.config import GrnConfig
     from evodevo.grn.controller import make_controller
     from evodevo.grn.evaluation import rate_dict
     from evodevo.grn.evaluation import test_episodes as locked_test_episodes
     from evodevo.grn.evaluator import Evaluator
     from evodevo.grn.evolution import Checkpointer, Evolution, ProgressPrinter
     from evodevo.grn.frontends import make_frontend, save_frontend
+    from evodevo.grn.vision_preset import vision_preset
     from evodevo.parallel import set_single_thread
     from evodevo.runs import RunDir
 

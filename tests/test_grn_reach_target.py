@@ -12,9 +12,10 @@ import pytest
 
 from evodevo.config import load_config
 from evodevo.errors import ConfigError, EvodevoError
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.env_interface import grasp_distance
 from evodevo.grn.frontends import BlobLocaliser, encode
+from evodevo.grn.vision_preset import vision_preset
 
 GRAY = 120
 

@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 from evodevo.config import load_config
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import PlainGrnController
 from evodevo.grn.dynamics import expression_step, motor_output
 from evodevo.grn.genome import init_genome
 from evodevo.grn.neuromodulated import NeuromodGrnController
+from evodevo.grn.vision_preset import vision_preset
 
 ROOT = Path(__file__).resolve().parents[1]
 

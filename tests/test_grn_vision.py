@@ -205,7 +205,7 @@ def test_camera_model_is_the_envs_camera():
 
 def test_the_vision_yaml_is_the_default_preset():
     from evodevo.config import to_dict
-    from evodevo.grn.config import vision_preset
+    from evodevo.grn.vision_preset import vision_preset
 
     assert to_dict(_vision_cfg()) == to_dict(load_config(GrnConfig, None, vision_preset()))
     # the thesis file is the thesis defaults, unchanged
@@ -251,6 +251,6 @@ def test_the_neuromodulated_grn_runs_on_the_blob_front_end():
 
 
 def vision_preset_dict() -> dict:
-    from evodevo.grn.config import vision_preset
+    from evodevo.grn.vision_preset import vision_preset
 
     return vision_preset()

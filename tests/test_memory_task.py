@@ -17,9 +17,10 @@ import evodevo.envs  # noqa: F401  (registers the env ids)
 from evodevo.baselines import policies
 from evodevo.config import from_dict, load_config, resolve
 from evodevo.errors import ConfigError
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluation import default_baselines
 from evodevo.grn.frontends import DXY_UNIT, BlobLocaliser
+from evodevo.grn.vision_preset import vision_preset
 
 ROOT = Path(__file__).resolve().parents[1]
 KUKA = "evodevo/KukaDiverseObject-v0"

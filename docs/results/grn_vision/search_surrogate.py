@@ -25,9 +25,10 @@ from typing import Any
 import numpy as np
 
 from evodevo.config import load_config
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import PlainGrnController
 from evodevo.grn.selection import rank, tournament
+from evodevo.grn.vision_preset import vision_preset
 
 WX, WY = (0.50, 0.65), (-0.17, 0.22)  # end-effector workspace clamp of the env (m)
 TX, TY = (0.50, 0.65), (-0.13, 0.13)  # where targets are drawn (the tray)

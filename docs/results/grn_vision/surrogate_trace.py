@@ -12,7 +12,8 @@ sys.path.insert(0, "docs/results/grn_vision")
 import surrogate_variants as surr
 
 from evodevo.config import load_config
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
+from evodevo.grn.vision_preset import vision_preset
 
 opt = json.loads(sys.argv[1])
 seed = int(sys.argv[2])

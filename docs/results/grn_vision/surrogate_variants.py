@@ -15,11 +15,12 @@ import time
 import numpy as np
 
 from evodevo.config import load_config
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.controller import PlainGrnController
 from evodevo.grn.dynamics import expression_step
 from evodevo.grn.mutation import clip_to_bounds, mutate_genome
 from evodevo.grn.selection import rank, tournament
+from evodevo.grn.vision_preset import vision_preset
 
 WX, WY = (0.50, 0.65), (-0.17, 0.22)
 

@@ -36,7 +36,7 @@ from evodevo.cli.common import (
 from evodevo.config import from_dict, load_config, merge, parse_sets, to_dict
 from evodevo.errors import EvodevoError
 from evodevo.grn.ablations import ablations_stem, run_ablations
-from evodevo.grn.config import GrnConfig, vision_preset
+from evodevo.grn.config import GrnConfig
 from evodevo.grn.evaluation import evaluate_baselines
 from evodevo.grn.evaluation import test_episodes as fixed_test_episodes
 from evodevo.grn.evaluator import action_dims, is_vector_observation, make_env
@@ -49,6 +49,7 @@ from evodevo.grn.neuromodulated import (
     run_modulator_ablations,
 )
 from evodevo.grn.recording import TRACE_FILE, record_trace
+from evodevo.grn.vision_preset import vision_preset
 from evodevo.parallel import set_single_thread
 from evodevo.progress import CommandProgress, GenerationBar
 from evodevo.runs import RunDir, read_json, run_kind

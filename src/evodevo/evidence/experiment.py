@@ -287,7 +287,8 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
                 scores.values.append(value)
             scores.seeds.append(seed)
             tests.setdefault(test, str(path))
-            scores.columns = _run_columns(spec, path.parent, scores)
+            for label, value in _run_columns(spec, path.parent).items():
+                scores.columns.setdefault(label, {})[seed] = value
         arms[name] = scores
     if len(tests) > 1:
         listed = "; ".join(f"{t} in {p}" for t, p in tests.items())
@@ -305,23 +306,21 @@ def read_arms(spec: ExperimentSpec, root: Path) -> tuple[dict[str, ArmScores], t
     return arms, next(iter(tests))
 
 
-def _run_columns(spec: ExperimentSpec, run: Path, scores: ArmScores) -> dict[str, dict[int, float]]:
-    """``scores.columns`` with the ``run_columns`` of the run in folder ``run`` (its last seed)
-    added; a file or key the run does not have leaves its cell out."""
-    seed = scores.seeds[-1]
-    columns = scores.columns
+def _run_columns(spec: ExperimentSpec, run: Path) -> dict[str, float]:
+    """The ``run_columns`` values of the run in folder ``run``; a file or key the run does not
+    have leaves its column out."""
+    found: dict[str, float] = {}
     for label, where in spec.run_columns.items():
         file, _, key = where.partition("#")
-        path = run / file
-        if not path.is_file():
+        if not (run / file).is_file():
             continue
         try:
-            got = read_value(path, key, None)
+            got = read_value(run / file, key, None)
         except EvodevoError:
             continue
         if got is not None:
-            columns.setdefault(label, {})[seed] = got[0]
-    return columns
+            found[label] = got[0]
+    return found
 
 
 @dataclass

@@ -13,7 +13,6 @@ Unknown keys and bad values raise :class:`~evodevo.errors.ConfigError` naming th
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,6 +31,8 @@ GENOME_BLOCKS = WEIGHT_BLOCKS + PARAMETER_BLOCKS
 """Every block that ``mutation.block_sigma`` and ``mutation.block_p`` may name."""
 KEEP = ("last", "record", "validated")
 """Values of ``evolution.keep``: which genome an evolution returns (:mod:`evodevo.grn.return_rule`)."""
+VALIDATION_SCORES = ("successes", "return")
+"""Values of ``evaluation.validation_score``: what ``evolution.keep: validated`` ranks by."""
 OPTIMIZERS = ("ga", "cmaes")
 """Values of ``evolution.optimizer``: the thesis' genetic algorithm, or CMA-ES."""
 DISTANCE_TO = ("nearest", "target")
@@ -55,6 +56,7 @@ __all__ = [
     "DISTANCE_TO",
     "KEEP",
     "OPTIMIZERS",
+    "VALIDATION_SCORES",
     "FRONTEND_FEATURES",
     "GENOME_BLOCKS",
     "PARAMETER_BLOCKS",
@@ -387,7 +389,7 @@ class EvaluationConfig:
         _check_range("noisy_fraction", self.noisy_fraction, 0.0, 1.0)
         _check_range("validation_episodes", self.validation_episodes, 1)
         require_validation(self.validation_seed, 1, "evaluation.validation_seed")
-        if self.validation_score not in ("successes", "return"):
+        if self.validation_score not in VALIDATION_SCORES:
             raise ConfigError(
                 f"evaluation.validation_score={self.validation_score!r}: use successes or return"
             )
@@ -581,29 +583,3 @@ class GrnConfig:
                 f"front-end localised; sensors.encoder is {self.sensors.encoder!r}. Use "
                 "sensors.encoder: blob or evaluation.distance_to: nearest"
             )
-
-
-VISION_PRESET: dict[str, Any] = {
-    "dynamics": {"dt": 0.1, "substeps": 10, "restart": True},
-    "sensors": {"encoder": "blob", "feature_dim": 4, "proprio": False},
-    "genome": {"ws_std": 1.0, "p_init": "identity"},
-    "mutation": {"p_weight": 0.5},
-    "evolution": {
-        "early_stop": False,
-        "early_stop_success": 0.8,
-        "retest_success": 0.7,
-        "keep": "record",
-    },
-    "evaluation": {"distance_weight": 1.0},
-}
-"""The default preset of ``evodevo grn evolve``: what differs from the thesis
-defaults (``configs/grn.yaml``). ``configs/grn_vision.yaml`` spells it out; a test checks both
-agree. Values chosen by measurement (docs/results/grn.md)."""
-
-
-def vision_preset() -> dict[str, Any]:
-    """A copy of :data:`VISION_PRESET` (overrides of the thesis defaults)."""
-    return copy.deepcopy(VISION_PRESET)
-
-
-__all__ += ["VISION_PRESET", "vision_preset"]

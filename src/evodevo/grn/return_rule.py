@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from evodevo.errors import CheckpointError, ConfigError
+from evodevo.grn.config import VALIDATION_SCORES
 from evodevo.grn.evaluator import Episode
 from evodevo.runs import RunDir
 from evodevo.safe_io import load_state, save_state
@@ -79,7 +80,7 @@ __all__ = [
 VALIDATED = "validated"
 RULES = ("last", "record", VALIDATED)
 """Every model-return rule; ``record`` needs a population's lifetime records (the GRN)."""
-SCORES = ("successes", "return")
+SCORES = VALIDATION_SCORES
 """What ``validated`` ranks candidates by: validation successes (default) or mean return."""
 STATE_FILE = "validation.safetensors"
 """The keeper's state, in the run's ``checkpoints/`` folder."""
