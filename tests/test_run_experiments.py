@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -83,3 +84,62 @@ def test_every_queued_experiment_is_a_function_and_every_decision_has_its_file()
     assert {"g1", "g3", "e2"} <= decided
     for name in decided:
         assert (SCRIPT.parent / f"{name}.yaml").is_file(), name
+
+
+def test_prune_drops_resume_only_files_of_finished_runs_only(tmp_path):
+    """PRUNE keeps what a finished run's tables read and everything of an unfinished run."""
+
+    def run(name: str, summary: str | None, files: list[str]) -> Path:
+        folder = tmp_path / name
+        (folder / "checkpoints").mkdir(parents=True)
+        if summary is not None:
+            (folder / "summary.json").write_text(summary)
+        for f in files:
+            (folder / "checkpoints" / f).write_bytes(b"x")
+        return folder / "checkpoints"
+
+    grn = run("grn_s0", '{"done": true}', ["checkpoint.npz", "validation.safetensors"])
+    going = run("grn_s1", '{"done": false}', ["checkpoint.npz", "validation.safetensors"])
+    ppo = run(
+        "ppo_s0",
+        '{"method": "ppo"}',
+        [
+            "rl_model_12000_steps.safetensors",
+            "candidate_12779_steps.safetensors",
+            "validation.safetensors",
+            "clock.json",
+        ],
+    )
+    neat = run(
+        "neat_s0",
+        '{"done": true}',
+        ["neat-checkpoint-15.json", "neat_state.json", "validation.safetensors"],
+    )
+    biarm = run(
+        "v1/runs/biarm__s0",
+        "{}",
+        [
+            "task0.safetensors",
+            "task1.safetensors",
+            "task2.safetensors",
+            "task3.safetensors",
+            "task3_ep450.safetensors",
+        ],
+    )
+    training = run("v1/runs/clamped__s0", None, ["task0.safetensors", "task1_ep50.safetensors"])
+
+    proc = _bash(f'out="{tmp_path}"; py="{sys.executable}"; prune', tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    left = {d.parent.name: sorted(p.name for p in d.iterdir()) for d in (grn, going, ppo, neat)}
+    assert left == {
+        "grn_s0": ["validation.safetensors"],
+        "grn_s1": ["checkpoint.npz", "validation.safetensors"],
+        "ppo_s0": ["clock.json", "validation.safetensors"],
+        "neat_s0": ["validation.safetensors"],
+    }
+    assert sorted(p.name for p in biarm.iterdir()) == ["task3.safetensors"]
+    assert sorted(p.name for p in training.iterdir()) == [
+        "task0.safetensors",
+        "task1_ep50.safetensors",
+    ]
+    assert proc.stdout.count("pruned ") == 9

@@ -10,7 +10,8 @@
 # class so that it only uses a core the first leaves free and the first lane's wall times stay
 # those of a machine to itself:  chrt -i 0 bash docs/results/claims/run_experiments.sh E2 E2B E4 E5 E3B
 # Run the script once more after both lanes finish: it skips every finished run and fills in
-# what a lane skipped (a test or table whose run the other lane still held).
+# what a lane skipped (a test or table whose run the other lane still held). Before committing
+# finished runs: bash docs/results/claims/run_experiments.sh PRUNE (drops their resume-only files).
 set -euo pipefail
 root=$(git rev-parse --show-toplevel)
 cd "$root"
@@ -36,6 +37,26 @@ code_at() {  # the worktree of commit $1 (created once)
 done_run() {  # a finished run: summary.json without "done": false (grn evolve writes one every generation)
   "$py" -c 'import sys; from pathlib import Path; from evodevo.reproduce.run_files import finished
 p = Path(sys.argv[1]) / "summary.json"; sys.exit(0 if p.is_file() and finished(p) else 1)' "$1"
+}
+
+prune() {  # PRUNE: drop what only resuming needs from every finished run (before committing them)
+  "$py" - "$out" <<'EOF'
+import sys
+from pathlib import Path
+
+from evodevo.reproduce.run_files import finished
+
+resume_only = ("checkpoint.npz", "rl_model_*_steps.safetensors", "candidate_*_steps.safetensors",
+               "neat-checkpoint-*.json", "neat_state.json", "task*_ep*.safetensors")
+for summary in sorted(Path(sys.argv[1]).rglob("summary.json")):
+    folder = summary.parent / "checkpoints"
+    if not folder.is_dir() or not finished(summary):
+        continue
+    tasks = sorted(folder.glob("task[0-9].safetensors"))  # a BIARM run keeps its last column stack
+    for path in [p for pattern in resume_only for p in folder.glob(pattern)] + tasks[:-1]:
+        path.unlink()
+        print(f"pruned {path}")
+EOF
 }
 
 decide() {  # decide g1: the experiment's tables from its runs so far (analysis: this checkout's code)
