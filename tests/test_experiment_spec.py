@@ -157,6 +157,46 @@ def test_registered_specs_load(spec: Path) -> None:
         assert any(k in arm for k in ("_locked", "summary.json#tasks", "table_run_scores"))
 
 
+@pytest.mark.parametrize("spec", REGISTERED, ids=lambda p: p.name)
+def test_every_registered_design_can_support_its_claim(spec: Path) -> None:
+    """A claim that needs "different" needs m * 2 / 2**n < 0.05 (G3 and E3 were amended so)."""
+    loaded, _ = load_experiment(spec)
+    assert loaded.can_support, (spec.name, loaded.smallest_decision_p)
+
+
+@pytest.mark.parametrize(
+    ("seeds", "decision", "floor", "can"),
+    [
+        ("0-5", ["a - b", "a - c", "b - c"], 3 * 2 / 64, False),
+        ("0-7", ["a - b"] * 1, 2 / 256, True),
+    ],
+)
+def test_a_design_that_cannot_reach_p_below_alpha_says_so(
+    tmp_path: Path, seeds: str, decision: list[str], floor: float, can: bool
+) -> None:
+    arms = {x: f"{x}_s{{seed}}/r.json" for x in "abc"}
+    p = _spec(tmp_path, seeds=seeds, arms=arms, decision=decision)
+    n = 6 if seeds == "0-5" else 8
+    for x, k in zip("abc", (180, 120, 60), strict=True):  # every run far apart: all signs agree
+        for s in range(n):
+            _result(tmp_path / "runs" / f"{x}_s{s}" / "r.json", k + s)
+    res = decide_experiment(*load_experiment(p))
+    assert res.spec.smallest_decision_p == pytest.approx(floor)
+    assert res.spec.can_support is can
+    assert res.decision[0].p_adj == pytest.approx(floor)  # the floor is reached, not passed
+    assert (res.reading == "supported") is can
+    assert ("cannot read 'supported'" in res.reading) is not can
+    assert f"can reach is {floor:.3g}" in write_experiment(p).read_text()
+
+
+def test_the_registered_g3_design_is_kept_and_cannot_support() -> None:
+    amended, _ = load_experiment(CLAIMS / "g3.yaml")
+    registered, _ = load_experiment(CLAIMS / "g3_as_registered.yaml")
+    assert registered.seeds == "0-5" and amended.seeds == "0-7"
+    assert registered.arms == amended.arms and registered.decision == amended.decision
+    assert not registered.can_support and amended.can_support
+
+
 DESCRIPTIVE = [
     CLAIMS / "g7_pendulum.yaml",
     *sorted((CLAIMS.parent / "thesis").glob("*/locked.yaml")),

@@ -176,7 +176,7 @@ g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
     PYTHONPATH="$src" nice -n 10 "$py" -m evodevo grn baselines --config "${src%/src}/configs/grn_vision.yaml" \
       --test-episodes 200 --objects test --test-seed 1000000 --workers 2 --quiet --out "$refs"
   fi
-  for seed in 0 1 2 3 4 5; do
+  for seed in 0 1 2 3 4 5 6 7; do  # seeds 6-7: the amendment of 2026-12-07 (claims.md, G3)
     grn_arm "$src" grn "$seed" --keep validated
     grn_arm "$src" blind "$seed" --keep validated --blind
     for m in ppo neat; do
@@ -186,6 +186,7 @@ g3() {  # G1's GRN, its blind twin, PPO and NEAT on the same features and budget
     done
   done
   decide g3
+  decide g3_as_registered  # the registered 6-run design's reading, beside the amended one
 }
 
 g4() {  # G1's GRN runs tested with noise on the visual features (SPEC §2.5), locked range
@@ -362,12 +363,12 @@ e5() {  # the module ablations beside E1's runs
   report "$out/default"
 }
 
-e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0-5)
+e3b() {  # E3's comparison at the scale phase A chose (both task orders, seeds 0-7 as amended)
   local src; src=$(code_at 9bb2eec)
   local scale; scale=$("$py" docs/results/claims/choose_lateral_scale.py)  # analysis: this checkout's code
   echo "E3: lateral scale $scale (phase A)"
   for order in cartpole-dynamics cartpole-dynamics-reversed; do
-    for s in 0-1 2-3 4-5; do
+    for s in 0-1 2-3 4-5 6-7; do
       compare "$src" --sequence "$order" --variants pnn,biarm,single \
         --set "network.lateral_scale=$scale" --seeds "$s" --out "$out/transfer/$order"
       compare "$src" --sequence "$order" --variants biarm --set modules.learning=learned \

@@ -57,6 +57,13 @@ sign-flip test, bootstrap interval of the mean difference, δ), Holm-corrected o
   comparisons only, ``claim_groups`` once per named group of them (the Holm family stays the
   whole decision). Until every arm of a comparison has all its registered runs the
   reading is **pending (k of n runs)**, with the numbers so far.
+
+A design can make "supported" impossible before any run: with ``n`` runs the exact sign-flip
+test cannot go below ``2 / 2**n``, and Holm multiplies the family's smallest p by the number
+of comparisons ``m``, so no claim that needs "different" can be supported when
+``m * 2 / 2**n >= 0.05`` (6 runs and 3 comparisons: 0.094).
+:attr:`ExperimentSpec.smallest_decision_p` is that floor; the table states it, and a reading
+whose design cannot support its claim says so.
 """
 
 from __future__ import annotations
@@ -73,8 +80,10 @@ from evodevo.config import doc, from_dict, read_yaml
 from evodevo.errors import ConfigError, EvodevoError
 from evodevo.evidence.aggregate import AGGREGATES, DEFAULT_REPS, interval_estimates
 from evodevo.evidence.normalise import SUCCESS_RATE_MARGIN
+from evodevo.evidence.paired import smallest_sign_flip_p
 from evodevo.evidence.result_files import read_success, read_value
 from evodevo.evidence.verdict import (
+    ALPHA,
     DIFFERENT,
     EQUIVALENT,
     Comparison,
@@ -200,6 +209,19 @@ class ExperimentSpec:
 
             return float(return_margin(task_scale(self.delta_task)))
         return 100 * SUCCESS_RATE_MARGIN
+
+    @property
+    def smallest_decision_p(self) -> float:
+        """The smallest Holm-adjusted p the registered runs can reach: ``m * 2 / 2**n`` for
+        ``m`` comparisons in the decision and ``n`` run seeds (module docstring)."""
+        n = len(parse_seeds(self.seeds, "seeds"))
+        return min(1.0, len(self.decision) * smallest_sign_flip_p(n))
+
+    @property
+    def can_support(self) -> bool:
+        """Whether the registered runs can read "supported" at all (claims that need
+        "different" need :attr:`smallest_decision_p` below 0.05)."""
+        return self.claim not in ("higher", "higher_by_delta") or self.smallest_decision_p < ALPHA
 
     @property
     def unit(self) -> str:
@@ -428,4 +450,10 @@ def decide_experiment(spec: ExperimentSpec, root: Path) -> ExperimentResult:
     else:
         counts = ", ".join(f"{a} {len(arms[a].seeds)}" for a in spec.arms if a in in_decision)
         reading = f"pending (runs so far of the {n_reg} registered per arm: {counts})"
+    if not spec.can_support:
+        reading += (
+            f" — this design cannot read 'supported': with {n_reg} runs and "
+            f"{len(spec.decision)} comparison(s) under Holm the smallest attainable p is "
+            f"{spec.smallest_decision_p:.3g} ≥ {ALPHA:g}"
+        )
     return ExperimentResult(spec, test, arms, decision, beside, complete, reading, n_reg)

@@ -109,7 +109,8 @@ def markdown(res: ExperimentResult) -> str:
         "## The decision",
         "",
         f"Paired by run seed (A − B, {spec.unit}), exact sign-flip test, Holm over the "
-        f"{len(spec.decision)} comparison(s) below.",
+        f"{len(spec.decision)} comparison(s) below; with {res.runs_registered} runs per arm "
+        f"the smallest p (Holm) the decision can reach is {spec.smallest_decision_p:.3g}.",
         "",
         to_markdown(res.decision, digits=digits)
         if res.decision
