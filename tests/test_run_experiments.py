@@ -143,3 +143,28 @@ def test_prune_drops_resume_only_files_of_finished_runs_only(tmp_path):
         "task1_ep50.safetensors",
     ]
     assert proc.stdout.count("pruned ") == 9
+
+
+def test_status_counts_each_experiments_runs_so_far(tmp_path):
+    """STATUS reads the registrations and counts the result files that exist (nothing else)."""
+    (tmp_path / "t1.yaml").write_text(
+        "name: T1\nseeds: 0-3\narms: {a: 'a_s{seed}/r.json', b: 'b_s{seed}/r.json'}\n"
+        "decision: [a - b]\n"
+    )
+    (tmp_path / "a_s1").mkdir()
+    (tmp_path / "a_s1" / "r.json").write_text(
+        '{"successes": 3, "episodes": 10, "objects": "test", "test_seed": 1000000}'
+    )
+    (tmp_path / "t2.yaml").write_text(
+        "name: T2\nseeds: 0-1\narms: {a: 'x_s{seed}/r.json', b: 'y_s{seed}/r.json'}\n"
+        "decision: [a - b]\n"
+    )
+    runs = tmp_path / "default" / "runs" / "pnn__s4"
+    runs.mkdir(parents=True)
+    (runs / "summary.json").write_text("{}")
+    proc = _bash(f'out="{tmp_path}"; py="{sys.executable}"; status', tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "T1: 1 of 8 runs (a 1/4, b 0/4)" in lines
+    assert "T2: 0 of 4 runs (a 0/2, b 0/2)" in lines
+    assert "E1: 1 of 30 runs (pnn 1/10, biarm 0/10, single 0/10)" in lines

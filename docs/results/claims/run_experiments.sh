@@ -11,7 +11,8 @@
 # those of a machine to itself:  chrt -i 0 bash docs/results/claims/run_experiments.sh E2 E2B E4 E5 E3B
 # Run the script once more after both lanes finish: it skips every finished run and fills in
 # what a lane skipped (a test or table whose run the other lane still held). Before committing
-# finished runs: bash docs/results/claims/run_experiments.sh PRUNE (drops their resume-only files).
+# finished runs: bash docs/results/claims/run_experiments.sh PRUNE (drops their resume-only files);
+# bash docs/results/claims/run_experiments.sh STATUS lists each experiment's runs so far.
 set -euo pipefail
 root=$(git rev-parse --show-toplevel)
 cd "$root"
@@ -56,6 +57,36 @@ for summary in sorted(Path(sys.argv[1]).rglob("summary.json")):
     for path in [p for pattern in resume_only for p in folder.glob(pattern)] + tasks[:-1]:
         path.unlink()
         print(f"pruned {path}")
+EOF
+}
+
+status() {  # STATUS: per registered experiment, the runs whose result file exists so far
+  "$py" - "$out" <<'EOF'
+import sys
+from pathlib import Path
+
+from evodevo.errors import EvodevoError
+from evodevo.evidence.experiment import load_experiment, read_arms
+from evodevo.seeding import parse_seeds
+
+out = Path(sys.argv[1])
+for path in sorted(out.glob("*.yaml")):
+    spec, root = load_experiment(path)
+    n = len(parse_seeds(spec.seeds, "seeds"))
+    try:
+        found = {a: len(s.seeds) for a, s in read_arms(spec, root)[0].items() if not s.reference}
+    except EvodevoError:  # no result file yet
+        found = {a: 0 for a, t in spec.arms.items() if "{seed}" in t}
+    done = sum(found.values())
+    arms = ", ".join(f"{a} {k}/{n}" for a, k in found.items())
+    print(f"{spec.name}: {done} of {n * len(found)} runs ({arms})")
+# E1 and E5 are read by `biarm report` from E1's folder: its finished runs per variant (seeds 0-9)
+variants = {"E1": ("pnn", "biarm", "single"), "E5": ("no-da", "no-5ht", "no-ne", "no-ach")}
+for name, arms in variants.items():
+    got = {v: sum((out / "default" / "runs" / f"{v}__s{s}" / "summary.json").is_file()
+                  for s in range(10)) for v in arms}
+    print(f"{name}: {sum(got.values())} of {10 * len(arms)} runs ("
+          + ", ".join(f"{v} {k}/10" for v, k in got.items()) + ")")
 EOF
 }
 
