@@ -330,7 +330,8 @@ retest() {  # the saved models behind README's older rows, re-tested on the lock
   fi
   local run cmd
   for run in docs/results/thesis/grn/{plain,neuromodulated}_s{0,1,2} docs/results/thesis/grn/{blind,openloop}_s0 \
-      docs/results/thesis/kuka/{ppo,neat}_x{1,5}_s{0,1} docs/results/thesis/kuka/td3_x5_s{0,1}; do
+      docs/results/thesis/kuka/{ppo,neat}_x{1,5}_s{0,1} docs/results/thesis/kuka/td3_x5_s{0,1} \
+      docs/results/grn_vision/{vision7_record,vision9_nm}_s{0,1,2}; do  # the last two added 2026-12-08
     cmd=(grn evaluate); case "$run" in */kuka/*) cmd=(baselines evaluate);; esac
     if [ ! -f "$run/test_locked.json" ]; then
       PYTHONPATH="$src" nice -n 10 "$py" -m evodevo "${cmd[@]}" "$run" --test-episodes 200 \
